@@ -1,0 +1,111 @@
+// The daemon's configuration as plain structs. Filled and validated by config/load.hpp at
+// start-up; read-only afterwards (any thread may read it). Every field gives its unit; defaults
+// are the values a field takes when the JSON omits it. The JSON reference is config/README.md.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace hvac_twin::config {
+
+enum class RegisterKind { kHolding, kInput };  // function code 0x03 / 0x04
+enum class ValueType { kInt16, kUint16, kInt32, kUint32, kFloat32 };
+
+// Byte order of a value over its registers, A = most significant byte. Modbus sends each register
+// big-endian, so 16-bit values are AB (or BA when the device swaps bytes). For 32-bit values:
+// ABCD = high word first ("big-endian"), CDAB = low word first ("word swap"), BADC = bytes
+// swapped in each word, DCBA = fully little-endian. For 16-bit types only ABCD and BADC are valid
+// (meaning AB and BA).
+enum class WordOrder { kABCD, kCDAB, kBADC, kDCBA };
+
+// What a point means to the model.
+//  kMeasured:    a model output y; fused by the filter when its quality is GOOD.
+//  kInput:       an actuator input u the controller sets (compressor speed, valve opening, ...).
+//  kDisturbance: a known disturbance u (outdoor air temperature, ...). Same use as kInput.
+enum class PointRole { kMeasured, kInput, kDisturbance };
+
+struct PointConfig {
+  std::string name;                            // unique within the unit; [A-Za-z0-9_]+
+  RegisterKind kind = RegisterKind::kHolding;  // JSON "register": "holding" | "input"
+  std::uint16_t address = 0;                   // 0-based protocol address of the first register
+  ValueType type = ValueType::kUint16;         // JSON "int16"|"uint16"|"int32"|"uint32"|"float32"
+  WordOrder word_order = WordOrder::kABCD;     // JSON "ABCD"|"CDAB"|"BADC"|"DCBA"
+  double scale = 1.0;                          // engineering value = raw * scale + offset
+  double offset = 0.0;                         // [unit]
+  std::string unit;                            // engineering unit of the decoded value
+  double range_min = 0.0;                      // physical range [unit]; outside it the point is
+  double range_max = 0.0;                      //   OUT_OF_RANGE (JSON "range": [min, max])
+  double stale_after_s = 10.0;                 // a GOOD value older than this is STALE [s, wall]
+  PointRole role = PointRole::kMeasured;
+  std::string signal;  // the model output (measured) or model input (input/disturbance) it feeds
+};
+
+struct ModbusDeviceConfig {
+  std::string host = "127.0.0.1";   // IPv4 address or host name of the Modbus TCP server
+  std::uint16_t port = 502;         // TCP port
+  int unit_id = 1;                  // Modbus unit identifier, 0..255 (checked in every reply)
+  double response_timeout_s = 0.5;  // per request; must be below half the poll period [s]
+  double byte_timeout_s = 0.1;      // between bytes of one reply [s]
+  double poll_period_s = 1.0;       // how often every point is read [s, wall]
+  double backoff_initial_s = 0.5;   // first reconnect delay after a transport error [s]
+  double backoff_max_s = 5.0;       // reconnect delay cap; jittered exponential in between [s]
+  int max_registers_per_request = 125;  // contiguous points are grouped up to this many registers
+};
+
+struct ModelConfig {
+  std::string type;                          // a model of the catalog, e.g. "zone_rc"
+  std::map<std::string, double> parameters;  // name -> value in the parameter's unit; omitted
+                                             // parameters take the model's defaults
+};
+
+struct EstimatorConfig {
+  double period_s = 10.0;    // model time advanced per cycle [s]
+  double deadline_s = 1.0;   // wall-time budget of one cycle [s]; an overrun degrades the cycle
+  double nis_gate = 10.83;   // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
+  int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty
+  std::map<std::string, double> process_noise;      // state -> random-walk intensity [unit/sqrt(s)]
+  std::map<std::string, double> measurement_noise;  // model output -> standard deviation [unit]
+  std::map<std::string, double> initial_state;      // state -> initial estimate [unit]
+  std::map<std::string, double> initial_std;        // state -> initial standard deviation [unit]
+};
+
+struct UnitConfig {
+  std::string id;  // unique on the site; [A-Za-z0-9_-]+; used as a DDS key
+  ModbusDeviceConfig modbus;
+  std::vector<PointConfig> points;
+  ModelConfig model;
+  EstimatorConfig estimator;
+};
+
+struct DdsConfig {
+  int domain_id = 0;                       // 0..232
+  std::string interface = "lo";            // network interface Cyclone DDS is pinned to
+  bool allow_multicast = false;            // multicast discovery (off: unicast to `peers`)
+  std::vector<std::string> peers{"127.0.0.1"};  // unicast discovery peers
+  std::string topic_prefix = "hvac_twin";  // topics are "<prefix>/<topic>"; [A-Za-z0-9_]+
+};
+
+struct RuntimeConfig {
+  // Model seconds per wall second. 1 in production; above 1 only against a simulator that runs
+  // with the same --time-scale (tests and the demo). The cycle runs every period_s / time_scale
+  // wall seconds and always advances the model by period_s.
+  double time_scale = 1.0;
+  // A cycle running longer than this many wall seconds is "hung": logged, health reports it,
+  // and with hang_exit the process exits (status 70) so its supervisor restarts it [s].
+  double hang_timeout_s = 30.0;
+  bool hang_exit = true;
+  int overruns_before_watchdog_stop = 3;  // consecutive overruns after which WATCHDOG=1 stops
+  std::string log_level = "info";         // trace|debug|info|warn|error
+};
+
+struct Config {
+  std::string site_id;                                   // [A-Za-z0-9_-]+; DDS key of every sample
+  std::string state_directory = "/var/lib/hvac-twin";    // checkpoints
+  std::vector<UnitConfig> units;                         // at least one
+  DdsConfig dds;
+  RuntimeConfig runtime;
+};
+
+}  // namespace hvac_twin::config

@@ -1,0 +1,38 @@
+// Loading and validating the configuration. Start-up only (allocates, may throw std::bad_alloc;
+// every other problem is reported as a ConfigError, never thrown).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config/config.hpp"
+#include "config/model_schema.hpp"
+
+namespace hvac_twin::config {
+
+inline constexpr int kExitConfigError = 78;  // EX_CONFIG from sysexits.h
+
+struct ConfigError {
+  std::string pointer;  // RFC 6901 JSON pointer of the offending value ("" = the whole document)
+  std::string message;  // what was wrong and what was expected, e.g.
+                        // "expected one of \"holding\", \"input\"; got \"coil\""
+};
+
+struct LoadResult {
+  std::optional<Config> config;     // set only when errors is empty
+  std::vector<ConfigError> errors;  // every error found, in document order
+};
+
+// Parses and validates a JSON document. Model types, parameter names and ranges, and the
+// signal/state names that points and estimator maps refer to are checked against `models`.
+LoadResult load_config_text(std::string_view json_text, const ModelCatalog& models);
+
+// Reads `path` and calls load_config_text. An unreadable file is one error with pointer "".
+LoadResult load_config_file(const std::string& path, const ModelCatalog& models);
+
+// One line per error: "<source>: <pointer>: <message>" (pointer "/" style, "" shown as "(root)").
+std::string format_errors(const std::vector<ConfigError>& errors, std::string_view source);
+
+}  // namespace hvac_twin::config

@@ -1,0 +1,70 @@
+// Plain descriptions of a model: its parameters, states, inputs and outputs, with units, ranges
+// and defaults. Header-only and dependency-free so configuration validation can check names and
+// ranges against a model without linking the model code (the runtime injects a lookup).
+//
+// Units: every field says its unit in `unit`, using the spellings of config/units.hpp
+// ("degC", "K", "W", "kW", "Pa", "kPa", "MPa", "bar", "J/K", "W/K", "1", ...).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace hvac_twin::plant {
+
+inline constexpr double kRequired = std::numeric_limits<double>::quiet_NaN();
+
+struct ParameterInfo {
+  std::string name;
+  std::string unit;
+  double default_value = 0.0;
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  bool integer = false;  // structural parameters such as a cell count
+  std::string description;
+};
+
+struct StateInfo {
+  std::string name;
+  std::string unit;
+  double min = -std::numeric_limits<double>::infinity();  // physical bounds (constraints)
+  double max = std::numeric_limits<double>::infinity();
+  double initial = 0.0;        // default initial estimate
+  double initial_std = 1.0;    // default initial standard deviation [unit]
+  double process_noise = 0.0;  // default random-walk intensity [unit/sqrt(s)]
+  double abs_tol = 1e-6;       // integrator absolute tolerance [unit]
+  bool augmented = false;      // a slow unknown appended to the physical state (d' = 0)
+  std::string description;
+};
+
+struct SignalInfo {
+  std::string name;
+  std::string unit;
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  double default_value = kRequired;  // inputs only: NaN means a point must provide it
+  std::string description;
+};
+
+struct ModelLayout {
+  std::vector<StateInfo> states;
+  std::vector<SignalInfo> inputs;   // u: actuators and known disturbances, held over a period
+  std::vector<SignalInfo> outputs;  // y = h(x, u): what sensors can measure
+
+  [[nodiscard]] static std::optional<std::size_t> find(const auto& list, std::string_view name) {
+    for (std::size_t i = 0; i < list.size(); ++i)
+      if (list[i].name == name) return i;
+    return std::nullopt;
+  }
+  [[nodiscard]] std::optional<std::size_t> state(std::string_view n) const { return find(states, n); }
+  [[nodiscard]] std::optional<std::size_t> input(std::string_view n) const { return find(inputs, n); }
+  [[nodiscard]] std::optional<std::size_t> output(std::string_view n) const {
+    return find(outputs, n);
+  }
+};
+
+}  // namespace hvac_twin::plant
