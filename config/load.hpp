@@ -8,9 +8,12 @@
 #include <vector>
 
 #include "config/config.hpp"
-#include "config/model_schema.hpp"
+#include "plant_models/core/model_info.hpp"
 
 namespace hvac_twin::config {
+
+// The model types configuration may name; the runtime passes plant::model_schemas().
+using ModelCatalog = std::vector<plant::ModelSchema>;
 
 inline constexpr int kExitConfigError = 78;  // EX_CONFIG from sysexits.h
 

@@ -8,7 +8,9 @@
 
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -65,6 +67,18 @@ struct ModelLayout {
   [[nodiscard]] std::optional<std::size_t> output(std::string_view n) const {
     return find(outputs, n);
   }
+};
+
+using ParameterMap = std::map<std::string, double>;
+
+// What configuration validation needs to know about a model type: its parameters, and the
+// layout a full parameter set gives (structural parameters such as a cell count change it).
+struct ModelSchema {
+  std::string type;
+  std::string description;
+  std::vector<ParameterInfo> parameters;
+  // Called with every parameter present and inside its range; must not throw for such a set.
+  std::function<ModelLayout(const ParameterMap&)> layout;
 };
 
 }  // namespace hvac_twin::plant

@@ -1,0 +1,187 @@
+#include "plant_models/core/integrator.hpp"
+
+#include <cvodes/cvodes.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <Eigen/Core>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace hvac_twin::plant {
+
+struct Integrator::Sundials {
+  SUNContext ctx = nullptr;
+  void* cvode = nullptr;
+  N_Vector y = nullptr;
+  N_Vector abs_tol = nullptr;
+  SUNMatrix jac = nullptr;
+  SUNLinearSolver ls = nullptr;
+  N_Vector* yS = nullptr;        // sensitivities, one vector per initial-state component
+  N_Vector* abs_tol_S = nullptr;  // their absolute tolerances
+  int ns = 0;
+
+  ~Sundials() {
+    if (abs_tol_S != nullptr) N_VDestroyVectorArray(abs_tol_S, ns);
+    if (yS != nullptr) N_VDestroyVectorArray(yS, ns);
+    if (cvode != nullptr) CVodeFree(&cvode);
+    if (ls != nullptr) SUNLinSolFree(ls);
+    if (jac != nullptr) SUNMatDestroy(jac);
+    if (abs_tol != nullptr) N_VDestroy(abs_tol);
+    if (y != nullptr) N_VDestroy(y);
+    if (ctx != nullptr) SUNContext_Free(&ctx);
+  }
+};
+
+// CVODES callbacks. They never throw; model status codes pass straight through (0 ok, > 0
+// recoverable: CVODES retries with a smaller step, < 0 fatal).
+struct IntegratorCallbacks {
+  static Integrator& self(void* user_data) { return *static_cast<Integrator*>(user_data); }
+  static std::span<double> view(N_Vector v) {
+    return {N_VGetArrayPointer(v), static_cast<std::size_t>(N_VGetLength(v))};
+  }
+
+  static int rhs(realtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
+    Integrator& it = self(user_data);
+    return it.model_.rhs(view(y), it.u_, view(ydot));
+  }
+
+  static int jacobian(realtype /*t*/, N_Vector y, N_Vector /*fy*/, SUNMatrix jac, void* user_data,
+                      N_Vector, N_Vector, N_Vector) {
+    Integrator& it = self(user_data);
+    const std::size_t n = it.n_;
+    return it.model_.rhs_jacobian(view(y), it.u_, {},
+                                  {SUNDenseMatrix_Data(jac), n * n});  // column-major, ld = n
+  }
+
+  // ySdot_j = J(y) yS_j: the variational equation of the initial-value problem.
+  static int sensitivity_rhs(int ns, realtype /*t*/, N_Vector y, N_Vector /*ydot*/, N_Vector* yS,
+                             N_Vector* ySdot, void* user_data, N_Vector, N_Vector) {
+    Integrator& it = self(user_data);
+    const auto n = static_cast<Eigen::Index>(it.n_);
+    const int status = it.model_.rhs_jacobian(view(y), it.u_, {}, {it.jac_.get(), it.n_ * it.n_});
+    if (status != kModelOk) return status;
+    const Eigen::Map<const Eigen::MatrixXd> J(it.jac_.get(), n, n);
+    for (int j = 0; j < ns; ++j) {
+      Eigen::Map<const Eigen::VectorXd> s(N_VGetArrayPointer(yS[j]), n);
+      Eigen::Map<Eigen::VectorXd> sdot(N_VGetArrayPointer(ySdot[j]), n);
+      sdot.noalias() = J * s;
+    }
+    return 0;
+  }
+
+  static void error_handler(int /*code*/, const char* module, const char* function, char* msg,
+                            void* user_data) {
+    Integrator& it = self(user_data);
+    std::snprintf(it.last_error_.data(), it.last_error_.size(), "%s/%s: %s", module, function, msg);
+  }
+};
+
+namespace {
+
+void check(int flag, const char* what) {
+  if (flag < 0) throw std::runtime_error(std::string("CVODES set-up failed in ") + what);
+}
+
+template <class T>
+T* check_ptr(T* p, const char* what) {
+  if (p == nullptr) throw std::runtime_error(std::string("SUNDIALS allocation failed: ") + what);
+  return p;
+}
+
+}  // namespace
+
+Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& options)
+    : model_(model),
+      options_(options),
+      n_(model.num_states()),
+      s_(std::make_unique<Sundials>()),
+      jac_(new double[n_ * n_]()) {
+  if (n_ == 0) throw std::invalid_argument("integrator: model has no states");
+  const auto n = static_cast<sunindextype>(n_);
+  Sundials& s = *s_;
+  check(SUNContext_Create(nullptr, &s.ctx), "SUNContext_Create");
+  s.y = check_ptr(N_VNew_Serial(n, s.ctx), "state vector");
+  s.abs_tol = check_ptr(N_VNew_Serial(n, s.ctx), "tolerance vector");
+  const auto& states = model_.layout().states;
+  double* atol = N_VGetArrayPointer(s.abs_tol);
+  for (std::size_t i = 0; i < n_; ++i) atol[i] = options_.abs_tol_scale * states[i].abs_tol;
+
+  s.cvode = check_ptr(CVodeCreate(CV_BDF, s.ctx), "CVodeCreate");
+  check(CVodeSetErrHandlerFn(s.cvode, &IntegratorCallbacks::error_handler, this), "err handler");
+  N_VConst(0.0, s.y);
+  check(CVodeInit(s.cvode, &IntegratorCallbacks::rhs, 0.0, s.y), "CVodeInit");
+  check(CVodeSetUserData(s.cvode, this), "CVodeSetUserData");
+  check(CVodeSVtolerances(s.cvode, options_.rel_tol, s.abs_tol), "CVodeSVtolerances");
+  s.jac = check_ptr(SUNDenseMatrix(n, n, s.ctx), "Jacobian matrix");
+  s.ls = check_ptr(SUNLinSol_Dense(s.y, s.jac, s.ctx), "dense linear solver");
+  check(CVodeSetLinearSolver(s.cvode, s.ls, s.jac), "CVodeSetLinearSolver");
+  check(CVodeSetJacFn(s.cvode, &IntegratorCallbacks::jacobian), "CVodeSetJacFn");
+  check(CVodeSetMaxNumSteps(s.cvode, options_.max_steps), "CVodeSetMaxNumSteps");
+  if (options_.max_step_s > 0.0) check(CVodeSetMaxStep(s.cvode, options_.max_step_s), "max step");
+
+  if (options_.sensitivities) {
+    s.ns = static_cast<int>(n_);
+    s.yS = check_ptr(N_VCloneVectorArray(s.ns, s.y), "sensitivity vectors");
+    s.abs_tol_S = check_ptr(N_VCloneVectorArray(s.ns, s.y), "sensitivity tolerances");
+    for (int j = 0; j < s.ns; ++j) {
+      N_VConst(0.0, s.yS[j]);
+      const double scale_j = atol[j] / options_.rel_tol;  // resolution scale of x0_j
+      double* a = N_VGetArrayPointer(s.abs_tol_S[j]);
+      for (std::size_t i = 0; i < n_; ++i) a[i] = atol[i] / scale_j;
+    }
+    check(CVodeSensInit(s.cvode, s.ns, CV_STAGGERED, &IntegratorCallbacks::sensitivity_rhs, s.yS),
+          "CVodeSensInit");
+    check(CVodeSensSVtolerances(s.cvode, options_.rel_tol, s.abs_tol_S), "sens tolerances");
+    check(CVodeSetSensErrCon(s.cvode, options_.sensitivity_error_control ? SUNTRUE : SUNFALSE),
+          "CVodeSetSensErrCon");
+  }
+}
+
+Integrator::~Integrator() = default;
+
+IntegrationResult Integrator::step(std::span<double> x, std::span<const double> u, double dt,
+                                   std::span<double> F) {
+  Sundials& s = *s_;
+  last_error_[0] = '\0';
+  u_ = u;
+  double* y = N_VGetArrayPointer(s.y);
+  std::memcpy(y, x.data(), n_ * sizeof(double));
+  IntegrationResult result;
+  result.flag = CVodeReInit(s.cvode, 0.0, s.y);
+  if (result.flag >= 0 && options_.sensitivities) {
+    for (int j = 0; j < s.ns; ++j) {
+      N_VConst(0.0, s.yS[j]);
+      N_VGetArrayPointer(s.yS[j])[j] = 1.0;
+    }
+    result.flag = CVodeSensReInit(s.cvode, CV_STAGGERED, s.yS);
+  }
+  if (result.flag >= 0) result.flag = CVodeSetStopTime(s.cvode, dt);
+  double t = 0.0;
+  if (result.flag >= 0) result.flag = CVode(s.cvode, dt, s.y, &t, CV_NORMAL);
+
+  stats_ = {};
+  CVodeGetNumSteps(s.cvode, &stats_.steps);
+  CVodeGetNumRhsEvals(s.cvode, &stats_.rhs_evals);
+  CVodeGetNumJacEvals(s.cvode, &stats_.jac_evals);
+  CVodeGetNumErrTestFails(s.cvode, &stats_.error_test_failures);
+  CVodeGetNumNonlinSolvConvFails(s.cvode, &stats_.nonlinear_failures);
+  if (options_.sensitivities) CVodeGetSensNumRhsEvals(s.cvode, &stats_.sens_rhs_evals);
+  if (result.flag < 0) return result;
+
+  if (options_.sensitivities && !F.empty()) {
+    result.flag = CVodeGetSens(s.cvode, &t, s.yS);
+    if (result.flag < 0) return result;
+    for (int j = 0; j < s.ns; ++j)
+      std::memcpy(&F[static_cast<std::size_t>(j) * n_], N_VGetArrayPointer(s.yS[j]),
+                  n_ * sizeof(double));
+  }
+  std::memcpy(x.data(), y, n_ * sizeof(double));
+  return result;
+}
+
+}  // namespace hvac_twin::plant
