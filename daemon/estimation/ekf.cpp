@@ -1,0 +1,189 @@
+#include "daemon/estimation/ekf.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace hvac_twin::est {
+namespace {
+
+plant::IntegratorOptions with_sensitivities(plant::IntegratorOptions o) {
+  o.sensitivities = true;
+  return o;
+}
+
+std::span<double> span_of(Eigen::VectorXd& v) {
+  return {v.data(), static_cast<std::size_t>(v.size())};
+}
+std::span<double> span_of(Eigen::MatrixXd& m) {
+  return {m.data(), static_cast<std::size_t>(m.size())};
+}
+
+}  // namespace
+
+Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_noise,
+         std::size_t max_measurements, const EkfOptions& options)
+    : model_(model),
+      options_(options),
+      n_(model.num_states()),
+      m_(model.num_outputs()),
+      integrator_(model, with_sensitivities(options.integrator)) {
+  if (process_noise.size() != n_)
+    throw std::invalid_argument("EKF: process noise must have one entry per state");
+  const auto n = static_cast<Eigen::Index>(n_), m = static_cast<Eigen::Index>(m_);
+  x_ = x_prior_ = x_good_ = Eigen::VectorXd::Zero(n);
+  P_ = P_good_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  H_ = Eigen::MatrixXd::Zero(m, n);
+  y_ = Eigen::VectorXd::Zero(m);
+  ph_ = k_ = bh_ = Eigen::VectorXd::Zero(n);
+  max_var_ = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
+  const auto& states = model.layout().states;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& s = states[static_cast<std::size_t>(i)];
+    Qc_(i, i) = process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
+    // A standard deviation wider than the state's whole physical range carries no information
+    // and only invites overflow: clamp the variance there.
+    const double width = s.max - s.min;
+    if (std::isfinite(width)) max_var_(i) = width * width;
+  }
+  llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+  consecutive_rejections_.assign(max_measurements, 0);
+  x_buf_.assign(n_, 0.0);
+}
+
+void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
+  P_.setZero();
+  for (std::size_t i = 0; i < n_; ++i) {
+    x_(static_cast<Eigen::Index>(i)) = x0[i];
+    P_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(i)) = std0[i] * std0[i];
+  }
+  x_good_ = x_;
+  P_good_ = P_;
+  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+}
+
+StepStatus Ekf::predict(std::span<const double> u, double dt) {
+  ++counters_.predicts;
+  std::copy(x_.data(), x_.data() + n_, x_buf_.begin());
+  const plant::IntegrationResult r = integrator_.step(x_buf_, u, dt, span_of(F_));
+  if (!r.ok()) {
+    // Keep the estimate, admit we know less: add the process noise of the period.
+    ++counters_.predict_failures;
+    P_.diagonal() += dt * Qc_.diagonal();
+    const StepStatus health = finish_step();
+    return health == StepStatus::kOk ? StepStatus::kModelError : health;
+  }
+  std::copy(x_buf_.begin(), x_buf_.end(), x_.data());
+  tmp_.noalias() = F_ * P_;
+  P_.noalias() = tmp_ * F_.transpose();
+  tmp_.noalias() = F_ * Qc_;
+  Qd_.noalias() = tmp_ * F_.transpose();
+  Qd_ += Qc_;
+  P_ += (0.5 * dt) * Qd_;
+  return finish_step();
+}
+
+StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u,
+                       std::span<MeasurementReport> reports) {
+  ++counters_.updates;
+  const std::size_t count = std::min({z.size(), reports.size(), consecutive_rejections_.size()});
+  for (std::size_t i = 0; i < count; ++i) reports[i] = MeasurementReport{};
+  if (model_.output_jacobian(span_of(x_), u, span_of(y_), span_of(H_)) != plant::kModelOk)
+    return StepStatus::kModelError;
+  x_prior_ = x_;
+
+  // Test every measurement against the prior, as the published innovations are.
+  for (std::size_t i = 0; i < count; ++i) {
+    const Measurement& mz = z[i];
+    MeasurementReport& rep = reports[i];
+    const auto o = static_cast<Eigen::Index>(mz.output);
+    rep.available = mz.available && mz.output < m_ && std::isfinite(mz.value) &&
+                    std::isfinite(mz.variance);
+    if (!rep.available) continue;
+    const double r = std::max(mz.variance, options_.min_measurement_variance);
+    ph_.noalias() = P_ * H_.row(o).transpose();
+    rep.predicted = y_(o);
+    rep.innovation = mz.value - y_(o);
+    rep.innovation_variance = H_.row(o).dot(ph_) + r;
+    rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
+    if (!(rep.test_ratio <= options_.nis_gate)) {
+      rep.rejected = true;
+      ++counters_.gate_rejections;
+      ++consecutive_rejections_[i];
+    } else {
+      rep.fused = true;  // fused below
+      consecutive_rejections_[i] = 0;
+    }
+    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+  }
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!reports[i].fused) continue;
+    fuse(z[i].output, reports[i].innovation,
+         std::max(z[i].variance, options_.min_measurement_variance));
+    ++counters_.fused;
+  }
+  return finish_step();
+}
+
+void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
+  const auto o = static_cast<Eigen::Index>(output);
+  const auto n = static_cast<Eigen::Index>(n_);
+  const double nu = innovation_at_prior - H_.row(o).dot(x_ - x_prior_);
+  ph_.noalias() = P_ * H_.row(o).transpose();
+  const double s = H_.row(o).dot(ph_) + r;
+  k_ = ph_ / s;
+  x_ += nu * k_;
+  // Joseph form P' = (I - k h) P (I - k h)ᵀ + r k kᵀ, as rank-1 updates:
+  // B = P - k (P hᵀ)ᵀ, then P' = B - (B hᵀ) kᵀ + r k kᵀ.
+  b_ = P_;
+  for (Eigen::Index c = 0; c < n; ++c)
+    for (Eigen::Index row = 0; row < n; ++row) b_(row, c) -= k_(row) * ph_(c);
+  bh_.noalias() = b_ * H_.row(o).transpose();
+  for (Eigen::Index c = 0; c < n; ++c)
+    for (Eigen::Index row = 0; row < n; ++row)
+      P_(row, c) = b_(row, c) - bh_(row) * k_(c) + r * k_(row) * k_(c);
+}
+
+int Ekf::output_estimates(std::span<const double> u, std::span<double> y,
+                          std::span<double> sigma) {
+  const int status = model_.output_jacobian(span_of(x_), u, y, span_of(H_));
+  if (status != plant::kModelOk) return status;
+  for (std::size_t r = 0; r < m_ && r < sigma.size(); ++r) {
+    const auto o = static_cast<Eigen::Index>(r);
+    ph_.noalias() = P_ * H_.row(o).transpose();
+    sigma[r] = std::sqrt(std::max(0.0, H_.row(o).dot(ph_)));
+  }
+  return plant::kModelOk;
+}
+
+StepStatus Ekf::finish_step() {
+  // Symmetrise, then clamp variances by congruence with a diagonal scaling (keeps P SPD).
+  tmp_ = P_.transpose();
+  P_ += tmp_;
+  P_ *= 0.5;
+  for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(n_); ++i) {
+    if (P_(i, i) > max_var_(i)) {
+      const double s = std::sqrt(max_var_(i) / P_(i, i));
+      P_.row(i) *= s;
+      P_.col(i) *= s;
+    }
+  }
+  if (healthy()) {
+    x_good_ = x_;
+    P_good_ = P_;
+    return StepStatus::kOk;
+  }
+  ++counters_.numerical_resets;
+  x_ = x_good_;
+  P_ = P_good_;
+  return StepStatus::kNumericalReset;
+}
+
+bool Ekf::healthy() {
+  if (!x_.allFinite() || !P_.allFinite()) return false;
+  llt_.compute(P_);
+  return llt_.info() == Eigen::Success;
+}
+
+}  // namespace hvac_twin::est

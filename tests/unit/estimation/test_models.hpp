@@ -1,0 +1,43 @@
+// Small models for estimator tests, written like plant models (templated on the scalar).
+#pragma once
+
+#include <cmath>
+#include <span>
+#include <string>
+
+#include "plant_models/core/model.hpp"
+#include "plant_models/core/model_info.hpp"
+
+namespace hvac_twin::test {
+
+// x' = 0 (a random walk once the filter adds noise), y = x.
+struct RandomWalk {
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l;
+    l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
+    l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
+    f[0] = S(0.0);
+    return plant::kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0];
+    return plant::kModelOk;
+  }
+};
+
+// x' = 0, y = sqrt(x): at x = 0 the output Jacobian is infinite, which poisons an update.
+struct SqrtSensor : RandomWalk {
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    using std::sqrt;
+    y[0] = sqrt(x[0]);
+    return plant::kModelOk;
+  }
+};
+
+}  // namespace hvac_twin::test
