@@ -1,0 +1,140 @@
+#include "io/dds/echo/options.hpp"
+
+#include <charconv>
+#include <string_view>
+#include <vector>
+
+#include "io/dds/participant.hpp"
+
+namespace hvac_twin::dds::echo {
+namespace {
+
+template <typename T>
+T parse_number(std::string_view option, std::string_view text) {
+  T value{};
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc{} || end != text.data() + text.size()) {
+    throw UsageError(std::string(option) + ": '" + std::string(text) + "' is not a number");
+  }
+  return value;
+}
+
+TopicSet parse_topics(std::string_view list) {
+  TopicSet set{false, false, false};
+  while (!list.empty()) {
+    const std::size_t comma = list.find(',');
+    const std::string_view item = list.substr(0, comma);
+    if (item == "virtual_sensor") {
+      set.virtual_sensor = true;
+    } else if (item == "observation") {
+      set.observation = true;
+    } else if (item == "estimator_health") {
+      set.estimator_health = true;
+    } else if (item == "all") {
+      set = TopicSet{};
+    } else {
+      throw UsageError("--topics: unknown topic '" + std::string(item) +
+                       "' (virtual_sensor, observation, estimator_health, all)");
+    }
+    list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
+  }
+  if (!set.virtual_sensor && !set.observation && !set.estimator_health) {
+    throw UsageError("--topics: no topic given");
+  }
+  return set;
+}
+
+}  // namespace
+
+Options parse_options(int argc, const char* const* argv) {
+  Options options;
+  bool peers_given = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string_view arg = argv[i];
+    std::string_view value;
+    bool has_value = false;
+    if (const std::size_t eq = arg.find('='); arg.starts_with("--") && eq != arg.npos) {
+      value = arg.substr(eq + 1);
+      arg = arg.substr(0, eq);
+      has_value = true;
+    }
+    const auto next = [&]() -> std::string_view {
+      if (has_value) return value;
+      if (i + 1 >= argc) throw UsageError(std::string(arg) + " needs a value");
+      return argv[++i];
+    };
+    if (arg == "--help" || arg == "-h") {
+      options.help = true;
+    } else if (arg == "--domain") {
+      const int domain = parse_number<int>(arg, next());
+      if (domain < 0 || domain > 232) throw UsageError("--domain: must be 0..232");
+      options.dds.domain_id = domain;
+    } else if (arg == "--interface") {
+      options.dds.interface = next();
+    } else if (arg == "--peer") {
+      if (!peers_given) options.dds.peers.clear();
+      peers_given = true;
+      options.dds.peers.emplace_back(next());
+    } else if (arg == "--multicast") {
+      options.dds.allow_multicast = true;
+    } else if (arg == "--topic-prefix") {
+      options.dds.topic_prefix = next();
+    } else if (arg == "--topics") {
+      options.topics = parse_topics(next());
+    } else if (arg == "--count") {
+      const auto count = parse_number<std::uint64_t>(arg, next());
+      if (count == 0) throw UsageError("--count: must be at least 1");
+      options.count = count;
+    } else if (arg == "--duration") {
+      const double seconds = parse_number<double>(arg, next());
+      if (!(seconds > 0.0 && seconds < 1e9)) throw UsageError("--duration: must be > 0");
+      options.duration_s = seconds;
+    } else if (arg == "--format") {
+      const std::string_view format = next();
+      if (format == "json") {
+        options.format = Format::kJson;
+      } else if (format == "text") {
+        options.format = Format::kText;
+      } else {
+        throw UsageError("--format: must be json or text");
+      }
+    } else {
+      throw UsageError("unknown option '" + std::string(arg) + "' (see --help)");
+    }
+  }
+  try {  // the same checks the participant and topics make, reported as usage errors
+    (void)topic_name(options.dds.topic_prefix, Topic::kVirtualSensor);
+    (void)make_cyclone_config(options.dds);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+  return options;
+}
+
+std::string usage_text() {
+  return R"(Usage: hvac-twin-echo [OPTIONS]
+
+Prints every hvac-twin DDS sample (virtual sensors, observations, estimator health) as one
+line on stdout, flushed per line. A new subscriber first receives the latest sample of every
+key already published.
+
+Options:
+  --domain N           DDS domain id, 0..232 (default 0)
+  --interface NAME     network interface to use (default lo)
+  --peer ADDR          unicast discovery peer; repeatable (default 127.0.0.1)
+  --multicast          allow multicast discovery (default: off, unicast to the peers)
+  --topic-prefix P     topics are P/virtual_sensor, P/observation, P/estimator_health
+                       (default hvac_twin)
+  --topics LIST        comma-separated subset of virtual_sensor,observation,estimator_health
+                       (default all)
+  --count N            exit after N samples
+  --duration S         exit after S seconds
+  --format json|text   json: one JSON object per sample with a "topic" field (default);
+                       text: one aligned human-readable line per sample
+  -h, --help           show this help
+
+Exit status: 0 on success, SIGINT or SIGTERM; 1 on a DDS error; 64 on a usage error.
+)";
+}
+
+}  // namespace hvac_twin::dds::echo

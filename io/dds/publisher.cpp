@@ -1,0 +1,205 @@
+#include "io/dds/publisher.hpp"
+
+#include <dds/dds.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "io/dds/detail/entity.hpp"
+#include "io/dds/detail/wire.hpp"
+#include "io/dds/qos.hpp"
+
+namespace hvac_twin::dds {
+
+struct UnitPublisher::Wire {
+  detail::Entity topics[3];   // declared before the writers: destroyed after them
+  detail::Entity writers[3];  // indexed by Topic
+  hvac_twin_VirtualSensor virtual_sensor{};
+  hvac_twin_Observation observation{};
+  hvac_twin_EstimatorHealth health{};
+
+  dds_entity_t writer(Topic topic) const noexcept { return writers[static_cast<int>(topic)].get(); }
+};
+
+namespace {
+
+std::string describe_name(std::string_view what, std::string_view value) {
+  return "DDS " + std::string(what) + " '" + std::string(value) + "' must be 1.." +
+         std::to_string(kMaxNameLength) + " bytes without NUL";
+}
+
+bool finite(double x) noexcept {
+  return std::isfinite(x);
+}
+
+}  // namespace
+
+std::string_view to_string(PublishStatus status) noexcept {
+  switch (status) {
+    case PublishStatus::kOk:
+      return "ok";
+    case PublishStatus::kNonFinite:
+      return "non-finite value refused";
+    case PublishStatus::kInvalidValue:
+      return "negative uncertainty or duration refused";
+    case PublishStatus::kInvalidName:
+      return "empty, too long or NUL-containing name refused";
+    case PublishStatus::kInvalidUnit:
+      return "too long or NUL-containing engineering unit refused";
+    case PublishStatus::kInvalidTimestamp:
+      return "negative timestamp refused";
+    case PublishStatus::kDdsError:
+      return "DDS write failed";
+  }
+  return "unknown status";
+}
+
+UnitPublisher::UnitPublisher(Participant& participant, std::string_view topic_prefix,
+                             std::string_view site, std::string_view unit,
+                             std::chrono::nanoseconds period)
+    : wire_(std::make_unique<Wire>()) {
+  if (period <= std::chrono::nanoseconds::zero()) {
+    throw std::invalid_argument("DDS publisher: the cycle period must be positive");
+  }
+  Wire& w = *wire_;
+  if (!detail::copy_bounded(w.virtual_sensor.site, site, true)) {
+    throw std::invalid_argument(describe_name("site", site));
+  }
+  if (!detail::copy_bounded(w.virtual_sensor.unit, unit, true)) {
+    throw std::invalid_argument(describe_name("unit", unit));
+  }
+  // The keys are fixed for this publisher: fill them once.
+  (void)detail::copy_bounded(w.observation.site, site, true);
+  (void)detail::copy_bounded(w.observation.unit, unit, true);
+  (void)detail::copy_bounded(w.health.site, site, true);
+  (void)detail::copy_bounded(w.health.unit, unit, true);
+
+  const QosPtr topic_qos = make_state_qos(kAnyPeriod);  // see make_state_qos
+  const QosPtr writer_qos = make_state_qos(period);
+  for (const Topic topic : kAllTopics) {
+    const std::string name = topic_name(topic_prefix, topic);
+    const int i = static_cast<int>(topic);
+    w.topics[i] =
+        detail::Entity(dds_create_topic(participant.native_handle(), detail::descriptor(topic),
+                                        name.c_str(), topic_qos.get(), nullptr),
+                       "topic " + name);
+    w.writers[i] = detail::Entity(dds_create_writer(participant.native_handle(), w.topics[i].get(),
+                                                    writer_qos.get(), nullptr),
+                                  "writer of " + name);
+  }
+}
+
+UnitPublisher::~UnitPublisher() = default;
+
+PublishStatus UnitPublisher::reject(PublishStatus status) noexcept {
+  auto& counter = status == PublishStatus::kNonFinite ? rejected_non_finite_ : rejected_invalid_;
+  counter.fetch_add(1, std::memory_order_relaxed);
+  return status;
+}
+
+PublishStatus UnitPublisher::write(std::int32_t writer, const void* sample,
+                                   std::int64_t timestamp_ns) noexcept {
+  const dds_return_t rc = dds_write_ts(writer, sample, timestamp_ns);
+  if (rc != DDS_RETCODE_OK) {
+    dds_errors_.fetch_add(1, std::memory_order_relaxed);
+    last_dds_error_.store(rc, std::memory_order_relaxed);
+    return PublishStatus::kDdsError;
+  }
+  published_.fetch_add(1, std::memory_order_relaxed);
+  return PublishStatus::kOk;
+}
+
+PublishStatus UnitPublisher::publish(const VirtualSensorSample& s) noexcept {
+  if (!finite(s.value) || !finite(s.sigma)) return reject(PublishStatus::kNonFinite);
+  if (s.sigma < 0.0) return reject(PublishStatus::kInvalidValue);
+  if (s.timestamp_ns < 0) return reject(PublishStatus::kInvalidTimestamp);
+  hvac_twin_VirtualSensor& w = wire_->virtual_sensor;
+  if (!detail::copy_bounded(w.name, s.name, true)) return reject(PublishStatus::kInvalidName);
+  if (!detail::copy_bounded(w.eng_unit, s.eng_unit, false)) {
+    return reject(PublishStatus::kInvalidUnit);
+  }
+  w.value = s.value;
+  w.sigma = s.sigma;
+  w.quality = detail::to_wire(s.quality);
+  w.flags = s.flags;
+  w.timestamp_ns = s.timestamp_ns;
+  w.cycle = s.cycle;
+  return write(wire_->writer(Topic::kVirtualSensor), &w, s.timestamp_ns);
+}
+
+PublishStatus UnitPublisher::publish(const ObservationSample& s) noexcept {
+  if (!finite(s.value) || !finite(s.predicted) || !finite(s.innovation) ||
+      !finite(s.innovation_variance) || !finite(s.test_ratio)) {
+    return reject(PublishStatus::kNonFinite);
+  }
+  if (s.innovation_variance < 0.0 || s.test_ratio < 0.0) {
+    return reject(PublishStatus::kInvalidValue);
+  }
+  if (s.timestamp_ns < 0) return reject(PublishStatus::kInvalidTimestamp);
+  hvac_twin_Observation& w = wire_->observation;
+  if (!detail::copy_bounded(w.point, s.point, true)) return reject(PublishStatus::kInvalidName);
+  w.value = s.value;
+  w.quality = detail::to_wire(s.quality);
+  w.exception_code = s.exception_code;
+  w.predicted = s.predicted;
+  w.innovation = s.innovation;
+  w.innovation_variance = s.innovation_variance;
+  w.test_ratio = s.test_ratio;
+  w.fused = s.fused;
+  w.timestamp_ns = s.timestamp_ns;
+  w.cycle = s.cycle;
+  return write(wire_->writer(Topic::kObservation), &w, s.timestamp_ns);
+}
+
+PublishStatus UnitPublisher::publish(const HealthSample& s) noexcept {
+  if (!finite(s.cycle_time_ms) || !finite(s.cycle_time_max_ms)) {
+    return reject(PublishStatus::kNonFinite);
+  }
+  if (s.cycle_time_ms < 0.0 || s.cycle_time_max_ms < 0.0) {
+    return reject(PublishStatus::kInvalidValue);
+  }
+  if (s.timestamp_ns < 0) return reject(PublishStatus::kInvalidTimestamp);
+  hvac_twin_EstimatorHealth& w = wire_->health;
+  w.cycle = s.cycle;
+  w.cycle_time_ms = s.cycle_time_ms;
+  w.cycle_time_max_ms = s.cycle_time_max_ms;
+  w.overruns = s.overruns;
+  w.degraded_cycles = s.degraded_cycles;
+  w.gate_rejections = s.gate_rejections;
+  w.numerical_resets = s.numerical_resets;
+  w.publish_rejections = stats().rejected();
+  w.quality = detail::to_wire(s.quality);
+  w.modbus_connected = s.modbus_connected;
+  w.modbus_polls_ok = s.modbus_polls_ok;
+  w.modbus_polls_failed = s.modbus_polls_failed;
+  w.modbus_reconnects = s.modbus_reconnects;
+  detail::copy_cut(w.modbus_last_error, s.modbus_last_error);
+  w.timestamp_ns = s.timestamp_ns;
+  return write(wire_->writer(Topic::kEstimatorHealth), &w, s.timestamp_ns);
+}
+
+PublishStatus UnitPublisher::assert_liveliness() noexcept {
+  PublishStatus status = PublishStatus::kOk;
+  for (const Topic topic : kAllTopics) {
+    const dds_return_t rc = dds_assert_liveliness(wire_->writer(topic));
+    if (rc != DDS_RETCODE_OK) {
+      dds_errors_.fetch_add(1, std::memory_order_relaxed);
+      last_dds_error_.store(rc, std::memory_order_relaxed);
+      status = PublishStatus::kDdsError;
+    }
+  }
+  return status;
+}
+
+PublisherStats UnitPublisher::stats() const noexcept {
+  PublisherStats s;
+  s.published = published_.load(std::memory_order_relaxed);
+  s.rejected_non_finite = rejected_non_finite_.load(std::memory_order_relaxed);
+  s.rejected_invalid = rejected_invalid_.load(std::memory_order_relaxed);
+  s.dds_errors = dds_errors_.load(std::memory_order_relaxed);
+  s.last_dds_error = last_dds_error_.load(std::memory_order_relaxed);
+  return s;
+}
+
+}  // namespace hvac_twin::dds

@@ -1,0 +1,112 @@
+// Plain C++ views of the hvac-twin DDS wire types (io/dds/idl/hvac_twin.idl). The rest of the
+// daemon fills these and hands them to UnitPublisher; it never sees a Cyclone DDS header.
+//
+// Units: every double carries the engineering unit named in its comment; timestamps are
+// CLOCK_REALTIME nanoseconds since the Unix epoch.
+// Ownership: the string_view fields are borrowed for the duration of one publish() call only;
+// publish() copies them into fixed-size wire buffers and keeps no reference.
+// Threads / allocation: plain aggregates; no allocation, no locking.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace hvac_twin::dds {
+
+// The three topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
+// "hvac_twin/virtual_sensor" ('/' is legal in Cyclone DDS 0.10 topic names).
+enum class Topic : std::uint8_t { kVirtualSensor = 0, kObservation = 1, kEstimatorHealth = 2 };
+inline constexpr Topic kAllTopics[] = {Topic::kVirtualSensor, Topic::kObservation,
+                                       Topic::kEstimatorHealth};
+// "virtual_sensor", "observation", "estimator_health". Never allocates.
+std::string_view topic_suffix(Topic topic) noexcept;
+// "<prefix>/<suffix>". Throws std::invalid_argument unless prefix matches [A-Za-z0-9_]+ (the
+// DdsConfig::topic_prefix rule). Allocates; creation time only.
+std::string topic_name(std::string_view prefix, Topic topic);
+
+// Longest accepted string per field, in bytes (the IDL bounds). A longer name is rejected, never
+// truncated. Only EstimatorHealth.modbus_last_error, free text, is cut and marked with "...".
+inline constexpr std::size_t kMaxNameLength = 64;        // site, unit, name, point
+inline constexpr std::size_t kMaxEngUnitLength = 32;     // VirtualSensor.eng_unit
+inline constexpr std::size_t kMaxErrorTextLength = 128;  // EstimatorHealth.modbus_last_error
+
+// Quality of an estimate or of a unit's estimator. Values match IDL EstimateQuality.
+enum class EstimateQuality : std::uint8_t { kGood = 0, kDegraded = 1, kNotReady = 2 };
+
+// Quality of a measured Modbus point. Values match IDL PointQuality.
+enum class PointQuality : std::uint8_t {
+  kNotYetRead = 0,
+  kGood = 1,
+  kStale = 2,
+  kCommFail = 3,
+  kDeviceException = 4,
+  kOutOfRange = 5,
+};
+
+// VirtualSensorSample::flags, provenance bits (IDL VS_FLAG_*).
+inline constexpr std::uint32_t kFlagPredictOnly = 1u << 0;       // no measurement fused
+inline constexpr std::uint32_t kFlagConstraintActive = 1u << 1;  // constrained update at a bound
+inline constexpr std::uint32_t kFlagInputHeld = 1u << 2;         // a stale input was held
+inline constexpr std::uint32_t kFlagColdStart = 1u << 3;         // no checkpoint restored
+inline constexpr std::uint32_t kFlagNumericalReset = 1u << 4;    // x, P reset this cycle
+inline constexpr std::uint32_t kFlagDeadlineOverrun = 1u << 5;   // this cycle overran
+
+// One virtual sensor of the unit the publisher belongs to (site and unit come from it).
+struct VirtualSensorSample {
+  std::string_view name;      // key; 1..64 bytes, no NUL, e.g. "condenser_pressure"
+  double value = 0.0;         // [eng_unit]; must be finite
+  double sigma = 0.0;         // 1-sigma standard deviation [eng_unit]; finite and >= 0
+  std::string_view eng_unit;  // 0..32 bytes, e.g. "Pa", "degC"
+  EstimateQuality quality = EstimateQuality::kNotReady;
+  std::uint32_t flags = 0;        // kFlag* bits
+  std::int64_t timestamp_ns = 0;  // CLOCK_REALTIME [ns], >= 0; also the DDS source timestamp
+  std::uint64_t cycle = 0;        // estimator cycle counter
+};
+
+// One measured point in one cycle. Every double must be finite: for a point that was not read
+// or not fused, publish value/predicted/innovation... as 0 (or the last value) and let quality
+// and fused say so; a NaN is refused.
+struct ObservationSample {
+  std::string_view point;  // key; 1..64 bytes, no NUL; the configured point name
+  double value = 0.0;      // measured value [point unit]
+  PointQuality quality = PointQuality::kNotYetRead;
+  std::uint8_t exception_code = 0;   // Modbus exception code if kDeviceException, else 0
+  double predicted = 0.0;            // h(x-) [point unit]
+  double innovation = 0.0;           // value - predicted [point unit]
+  double innovation_variance = 0.0;  // S [point unit^2], >= 0
+  double test_ratio = 0.0;           // NIS = innovation^2 / S [-], >= 0
+  bool fused = false;                // the update used this measurement
+  std::int64_t timestamp_ns = 0;     // CLOCK_REALTIME [ns], >= 0
+  std::uint64_t cycle = 0;
+};
+
+// Health of the publisher's unit, published once per cycle. Counters count since start.
+// publish_rejections on the wire is filled by the publisher itself (PublisherStats::rejected()).
+struct HealthSample {
+  std::uint64_t cycle = 0;
+  double cycle_time_ms = 0.0;      // wall time of the last cycle [ms]; finite, >= 0
+  double cycle_time_max_ms = 0.0;  // longest cycle since start [ms]; finite, >= 0
+  std::uint64_t overruns = 0;
+  std::uint64_t degraded_cycles = 0;
+  std::uint64_t gate_rejections = 0;
+  std::uint64_t numerical_resets = 0;
+  EstimateQuality quality = EstimateQuality::kNotReady;
+  bool modbus_connected = false;
+  std::uint64_t modbus_polls_ok = 0;
+  std::uint64_t modbus_polls_failed = 0;
+  std::uint64_t modbus_reconnects = 0;
+  std::string_view modbus_last_error;  // empty if none; cut to 128 bytes ending in "..."
+  std::int64_t timestamp_ns = 0;       // CLOCK_REALTIME [ns], >= 0
+};
+
+// Names used on the console and in JSON: the IDL enumerator without its prefix ("GOOD",
+// "NOT_READY", "COMM_FAIL", ...).
+// Out-of-range values (e.g. from a newer peer) give "UNKNOWN". Never allocates.
+std::string_view to_string(EstimateQuality quality) noexcept;
+std::string_view to_string(PointQuality quality) noexcept;
+// Name of one kFlag* bit ("predict_only", ...), or "" if the bit is not defined.
+std::string_view flag_name(std::uint32_t single_bit) noexcept;
+
+}  // namespace hvac_twin::dds

@@ -1,0 +1,189 @@
+// Every field of every sample type goes through a real Cyclone writer and reader unchanged.
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "dds_test_support.hpp"
+#include "io/dds/publisher.hpp"
+#include "io/dds/subscriber.hpp"
+
+using namespace hvac_twin::dds;
+using namespace std::chrono_literals;
+
+namespace {
+constexpr int kDomainRoundTrip = 104;
+constexpr int kDomainTwoUnits = 111;
+}  // namespace
+
+TEST_CASE("every field of every sample type round-trips", "[dds][roundtrip]") {
+  const auto config = test::loopback_config(kDomainRoundTrip);
+  Participant writer_side(config);
+  Participant reader_side(config);
+  const std::string site(kMaxNameLength, 's');  // the longest accepted key
+  UnitPublisher publisher(writer_side, config.topic_prefix, site, "hp-1", 1s);
+  Subscriber subscriber(reader_side, config.topic_prefix, {}, 1s);
+
+  const std::int64_t t0 = test::now_ns();
+  const std::string longest_unit(kMaxEngUnitLength, 'u');
+  const std::string longest_point(kMaxNameLength, 'p');
+  VirtualSensorSample vs;
+  vs.name = "condenser_outlet_pressure";
+  vs.value = 2.4567890123456789e6;
+  vs.sigma = 1234.5;
+  vs.eng_unit = longest_unit;
+  vs.quality = EstimateQuality::kDegraded;
+  vs.flags = kFlagPredictOnly | kFlagInputHeld | kFlagDeadlineOverrun;
+  vs.timestamp_ns = t0;
+  vs.cycle = 0xFFFF'FFFF'FFFF'FFF0ull;
+
+  ObservationSample obs;
+  obs.point = longest_point;
+  obs.value = -12.25;
+  obs.quality = PointQuality::kDeviceException;
+  obs.exception_code = 0x0B;
+  obs.predicted = -12.5;
+  obs.innovation = 0.25;
+  obs.innovation_variance = std::numeric_limits<double>::denorm_min();
+  obs.test_ratio = 1e300;
+  obs.fused = true;
+  obs.timestamp_ns = t0 + 1;
+  obs.cycle = 7;
+
+  // One refused sample first: health must report it in publish_rejections.
+  VirtualSensorSample nan_sample = vs;
+  nan_sample.value = std::nan("");
+  REQUIRE(publisher.publish(nan_sample) == PublishStatus::kNonFinite);
+
+  const std::string long_error(200, 'e');
+  HealthSample health;
+  health.cycle = 123456789012ull;
+  health.cycle_time_ms = 3.25;
+  health.cycle_time_max_ms = 17.5;
+  health.overruns = 1;
+  health.degraded_cycles = 2;
+  health.gate_rejections = 3;
+  health.numerical_resets = 4;
+  health.quality = EstimateQuality::kGood;
+  health.modbus_connected = true;
+  health.modbus_polls_ok = 5;
+  health.modbus_polls_failed = 6;
+  health.modbus_reconnects = 8;
+  health.modbus_last_error = long_error;
+  health.timestamp_ns = t0 + 2;
+
+  REQUIRE(publisher.publish(vs) == PublishStatus::kOk);
+  REQUIRE(publisher.publish(obs) == PublishStatus::kOk);
+  REQUIRE(publisher.publish(health) == PublishStatus::kOk);
+  CHECK(publisher.stats().published == 3);
+
+  std::vector<Record> records;
+  REQUIRE(test::collect(subscriber, records, 3));
+  REQUIRE(records.size() == 3);
+
+  const auto vss = test::only<VirtualSensorRecord>(records);
+  REQUIRE(vss.size() == 1);
+  const VirtualSensorRecord& v = vss[0];
+  CHECK(v.site == site);
+  CHECK(v.unit == "hp-1");
+  CHECK(v.name == vs.name);
+  CHECK(v.value == vs.value);  // bit-exact
+  CHECK(v.sigma == vs.sigma);
+  CHECK(v.eng_unit == vs.eng_unit);
+  CHECK(v.quality == EstimateQuality::kDegraded);
+  CHECK(v.flags == vs.flags);
+  CHECK(v.timestamp_ns == t0);
+  CHECK(v.source_timestamp_ns == t0);  // written with dds_write_ts
+  CHECK(v.cycle == vs.cycle);
+
+  const auto observations = test::only<ObservationRecord>(records);
+  REQUIRE(observations.size() == 1);
+  const ObservationRecord& o = observations[0];
+  CHECK(o.site == site);
+  CHECK(o.unit == "hp-1");
+  CHECK(o.point == obs.point);
+  CHECK(o.value == obs.value);
+  CHECK(o.quality == PointQuality::kDeviceException);
+  CHECK(o.exception_code == 0x0B);
+  CHECK(o.predicted == obs.predicted);
+  CHECK(o.innovation == obs.innovation);
+  CHECK(o.innovation_variance == obs.innovation_variance);
+  CHECK(o.test_ratio == obs.test_ratio);
+  CHECK(o.fused);
+  CHECK(o.timestamp_ns == t0 + 1);
+  CHECK(o.source_timestamp_ns == t0 + 1);
+  CHECK(o.cycle == 7);
+
+  const auto healths = test::only<HealthRecord>(records);
+  REQUIRE(healths.size() == 1);
+  const HealthRecord& h = healths[0];
+  CHECK(h.site == site);
+  CHECK(h.unit == "hp-1");
+  CHECK(h.cycle == health.cycle);
+  CHECK(h.cycle_time_ms == 3.25);
+  CHECK(h.cycle_time_max_ms == 17.5);
+  CHECK(h.overruns == 1);
+  CHECK(h.degraded_cycles == 2);
+  CHECK(h.gate_rejections == 3);
+  CHECK(h.numerical_resets == 4);
+  CHECK(h.publish_rejections == 1);  // the NaN sample above
+  CHECK(h.quality == EstimateQuality::kGood);
+  CHECK(h.modbus_connected);
+  CHECK(h.modbus_polls_ok == 5);
+  CHECK(h.modbus_polls_failed == 6);
+  CHECK(h.modbus_reconnects == 8);
+  // Free text is cut visibly, never silently.
+  CHECK(h.modbus_last_error.size() == kMaxErrorTextLength);
+  CHECK(h.modbus_last_error == std::string(kMaxErrorTextLength - 3, 'e') + "...");
+  CHECK(h.timestamp_ns == t0 + 2);
+  CHECK(h.source_timestamp_ns == t0 + 2);
+
+  // Every enumerator survives the wire.
+  records.clear();
+  for (int q = 0; q <= 5; ++q) {
+    obs.quality = static_cast<PointQuality>(q);
+    const std::string point = "q" + std::to_string(q);
+    obs.point = point;
+    REQUIRE(publisher.publish(obs) == PublishStatus::kOk);
+  }
+  for (int q = 0; q <= 2; ++q) {
+    vs.quality = static_cast<EstimateQuality>(q);
+    const std::string name = "e" + std::to_string(q);
+    vs.name = name;
+    REQUIRE(publisher.publish(vs) == PublishStatus::kOk);
+  }
+  REQUIRE(test::collect(subscriber, records, 9));
+  for (const auto& r : test::only<ObservationRecord>(records)) {
+    CHECK(r.point == "q" + std::to_string(static_cast<int>(r.quality)));
+  }
+  for (const auto& r : test::only<VirtualSensorRecord>(records)) {
+    CHECK(r.name == "e" + std::to_string(static_cast<int>(r.quality)));
+  }
+}
+
+TEST_CASE("two units publish side by side on one participant", "[dds][roundtrip]") {
+  const auto config = test::loopback_config(kDomainTwoUnits);
+  Participant participant(config);
+  UnitPublisher hp1(participant, config.topic_prefix, "site", "hp1", 1s);
+  UnitPublisher hp2(participant, config.topic_prefix, "site", "hp2", 1s);
+  Subscriber subscriber(participant, config.topic_prefix, {false, false, true});
+
+  HealthSample health;
+  health.timestamp_ns = test::now_ns();
+  health.cycle = 1;
+  REQUIRE(hp1.publish(health) == PublishStatus::kOk);
+  health.cycle = 2;
+  REQUIRE(hp2.publish(health) == PublishStatus::kOk);
+
+  std::vector<Record> records;
+  REQUIRE(test::collect(subscriber, records, 2));
+  auto healths = test::only<HealthRecord>(records);
+  REQUIRE(healths.size() == 2);
+  std::sort(healths.begin(), healths.end(),
+            [](const auto& a, const auto& b) { return a.unit < b.unit; });
+  CHECK(healths[0].unit == "hp1");
+  CHECK(healths[0].cycle == 1);
+  CHECK(healths[1].unit == "hp2");
+  CHECK(healths[1].cycle == 2);
+}
