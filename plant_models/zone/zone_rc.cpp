@@ -64,7 +64,11 @@ ModelLayout ZoneRc::make_layout() {
   //            name      unit    min     max    init  std   q [unit/sqrt(s)]  abs_tol
   l.states[kTAir] = {"T_air", "degC", -40.0, 70.0, 20.0, 2.0, 1e-3, 1e-6, false,
                      "zone air temperature"};
-  l.states[kTMass] = {"T_mass", "degC", -40.0, 70.0, 20.0, 3.0, 1e-4, 1e-6, false,
+  // The mass node also takes heat nobody models (solar on the slab, the ground): its random walk
+  // (0.03 K per sqrt(h)) keeps the filter from growing overconfident about it. With 1e-4 the
+  // integration test saw the mass error reach 3.6 sigma after internal-gain steps; with 5e-4,
+  // 2.3 sigma, the gains estimate unchanged.
+  l.states[kTMass] = {"T_mass", "degC", -40.0, 70.0, 20.0, 3.0, 5e-4, 1e-6, false,
                       "building-mass temperature"};
   l.states[kQInt] = {"Q_int", "W", -2000.0, 20000.0, 300.0, 300.0, 1.0, 1e-3, true,
                      "internal heat gains: people, equipment, solar (random walk)"};
