@@ -1,6 +1,8 @@
 // The daemon's configuration as plain structs. Filled and validated by config/load.hpp at
 // start-up; read-only afterwards (any thread may read it). Every field gives its unit; defaults
-// are the values a field takes when the JSON omits it. The JSON reference is config/README.md.
+// are the values a field takes when the JSON omits it, except fields marked "required", which
+// the JSON must give (their initializers are placeholders). A loaded Config satisfies every rule
+// written here. The JSON reference is config/README.md.
 #pragma once
 
 #include <cstdint>
@@ -27,64 +29,75 @@ enum class WordOrder { kABCD, kCDAB, kBADC, kDCBA };
 enum class PointRole { kMeasured, kInput, kDisturbance };
 
 struct PointConfig {
-  std::string name;                            // unique within the unit; [A-Za-z0-9_]+
+  std::string name;                            // required; unique within the unit; [A-Za-z0-9_]+
   RegisterKind kind = RegisterKind::kHolding;  // JSON "register": "holding" | "input"
-  std::uint16_t address = 0;                   // 0-based protocol address of the first register
-  ValueType type = ValueType::kUint16;         // JSON "int16"|"uint16"|"int32"|"uint32"|"float32"
-  WordOrder word_order = WordOrder::kABCD;     // JSON "ABCD"|"CDAB"|"BADC"|"DCBA"
-  double scale = 1.0;                          // engineering value = raw * scale + offset
-  double offset = 0.0;                         // [unit]
-  std::string unit;                            // engineering unit of the decoded value
-  double range_min = 0.0;                      // physical range [unit]; outside it the point is
-  double range_max = 0.0;                      //   OUT_OF_RANGE (JSON "range": [min, max])
-  double stale_after_s = 10.0;                 // a GOOD value older than this is STALE [s, wall]
+  std::uint16_t address = 0;  // required; 0-based protocol address of the first register; the
+                              // registers of points of one kind in a unit do not overlap
+  ValueType type = ValueType::kUint16;      // JSON "int16"|"uint16"|"int32"|"uint32"|"float32"
+  WordOrder word_order = WordOrder::kABCD;  // JSON "ABCD"|"CDAB"|"BADC"|"DCBA"
+  double scale = 1.0;                       // engineering value = raw * scale + offset; != 0
+  double offset = 0.0;                      // [unit]
+  std::string unit;             // required; engineering unit of the decoded value: a name of
+                                // config/units.hpp that converts to the signal's unit
+  double range_min = 0.0;       // required; physical range [unit], min < max; outside it the point
+  double range_max = 0.0;       //   is OUT_OF_RANGE (JSON "range": [min, max])
+  double stale_after_s = 10.0;  // a GOOD value older than this is STALE [s, wall]; > poll period
   PointRole role = PointRole::kMeasured;
-  std::string signal;  // the model output (measured) or model input (input/disturbance) it feeds
+  std::string signal;  // required; the model output (measured) or model input (input/disturbance)
+                       // it feeds; each model input is fed by at most one point
 };
 
 struct ModbusDeviceConfig {
-  std::string host = "127.0.0.1";   // IPv4 address or host name of the Modbus TCP server
-  std::uint16_t port = 502;         // TCP port
-  int unit_id = 1;                  // Modbus unit identifier, 0..255 (checked in every reply)
-  double response_timeout_s = 0.5;  // per request; must be below half the poll period [s]
-  double byte_timeout_s = 0.1;      // between bytes of one reply [s]
-  double poll_period_s = 1.0;       // how often every point is read [s, wall]
-  double backoff_initial_s = 0.5;   // first reconnect delay after a transport error [s]
-  double backoff_max_s = 5.0;       // reconnect delay cap; jittered exponential in between [s]
+  std::string host = "127.0.0.1";       // IPv4 address or host name of the Modbus TCP server
+  std::uint16_t port = 502;             // TCP port
+  int unit_id = 1;                      // Modbus unit identifier, 0..255 (checked in every reply)
+  double response_timeout_s = 0.4;      // per request; below half the poll period [s]
+  double byte_timeout_s = 0.1;          // between bytes of one reply; <= response timeout [s]
+  double poll_period_s = 1.0;           // how often every point is read [s, wall]
+  double backoff_initial_s = 0.5;       // first reconnect delay after a transport error;
+                                        //   <= backoff_max_s [s]
+  double backoff_max_s = 5.0;           // reconnect delay cap; jittered exponential in between [s]
   int max_registers_per_request = 125;  // contiguous points are grouped up to this many registers
 };
 
 struct ModelConfig {
-  std::string type;                          // a model of the catalog, e.g. "zone_rc"
+  std::string type;                          // required; a model of the catalog, e.g. "zone_rc"
   std::map<std::string, double> parameters;  // name -> value in the parameter's unit; omitted
                                              // parameters take the model's defaults
 };
 
 struct EstimatorConfig {
-  double period_s = 10.0;    // model time advanced per cycle [s]
-  double deadline_s = 1.0;   // wall-time budget of one cycle [s]; an overrun degrades the cycle
-  double nis_gate = 10.83;   // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
+  double period_s = 10.0;   // model time advanced per cycle [s]
+  double deadline_s = 1.0;  // wall-time budget of one cycle [s]; an overrun degrades the cycle;
+                            // <= period_s / runtime.time_scale and < runtime.hang_timeout_s
+  double nis_gate = 10.83;  // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
   int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty
-  std::map<std::string, double> process_noise;      // state -> random-walk intensity [unit/sqrt(s)]
-  std::map<std::string, double> measurement_noise;  // model output -> standard deviation [unit]
-  std::map<std::string, double> initial_state;      // state -> initial estimate [unit]
-  std::map<std::string, double> initial_std;        // state -> initial standard deviation [unit]
+  // Per state, in the state's unit; a state not listed takes the model's StateInfo default
+  // (process_noise, initial, initial_std). Names are states of the unit's model.
+  std::map<std::string, double> process_noise;  // state -> random-walk intensity, >= 0
+                                                // [unit/sqrt(s)]
+  std::map<std::string, double> initial_state;  // state -> initial estimate [unit], in its bounds
+  std::map<std::string, double> initial_std;    // state -> initial standard deviation [unit], > 0
+  // Required: exactly the model outputs that some point of the unit measures -> standard
+  // deviation of the measurement [the output's unit, not the point's], > 0.
+  std::map<std::string, double> measurement_noise;
 };
 
 struct UnitConfig {
-  std::string id;  // unique on the site; [A-Za-z0-9_-]+; used as a DDS key
+  std::string id;  // required; unique on the site; [A-Za-z0-9_-]+; used as a DDS key
   ModbusDeviceConfig modbus;
-  std::vector<PointConfig> points;
-  ModelConfig model;
-  EstimatorConfig estimator;
+  std::vector<PointConfig> points;  // required; at least one measured point, every model input
+                                    // without a default fed by one input/disturbance point
+  ModelConfig model;                // required
+  EstimatorConfig estimator;        // required (for measurement_noise)
 };
 
 struct DdsConfig {
-  int domain_id = 0;                       // 0..232
-  std::string interface = "lo";            // network interface Cyclone DDS is pinned to
-  bool allow_multicast = false;            // multicast discovery (off: unicast to `peers`)
-  std::vector<std::string> peers{"127.0.0.1"};  // unicast discovery peers
-  std::string topic_prefix = "hvac_twin";  // topics are "<prefix>/<topic>"; [A-Za-z0-9_]+
+  int domain_id = 0;                            // 0..232
+  std::string interface = "lo";                 // network interface Cyclone DDS is pinned to
+  bool allow_multicast = false;                 // multicast discovery (off: unicast to `peers`)
+  std::vector<std::string> peers{"127.0.0.1"};  // unicast discovery peers; >= 1 without multicast
+  std::string topic_prefix = "hvac_twin";       // topics are "<prefix>/<topic>"; [A-Za-z0-9_]+
 };
 
 struct RuntimeConfig {
@@ -101,9 +114,11 @@ struct RuntimeConfig {
 };
 
 struct Config {
-  std::string site_id;                                   // [A-Za-z0-9_-]+; DDS key of every sample
-  std::string state_directory = "/var/lib/hvac-twin";    // checkpoints
-  std::vector<UnitConfig> units;                         // at least one
+  std::string site_id;  // required; [A-Za-z0-9_-]+; DDS key of every sample
+  // Checkpoints. Absolute, or relative to the daemon's working directory at start-up (not to the
+  // configuration file). Not checked against the file system by the loader.
+  std::string state_directory = "/var/lib/hvac-twin";
+  std::vector<UnitConfig> units;  // required; at least one
   DdsConfig dds;
   RuntimeConfig runtime;
 };

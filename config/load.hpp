@@ -25,17 +25,21 @@ struct ConfigError {
 
 struct LoadResult {
   std::optional<Config> config;     // set only when errors is empty
-  std::vector<ConfigError> errors;  // every error found, in document order
+  std::vector<ConfigError> errors;  // every error found, in document order (a JSON syntax error
+                                    // stops parsing and is then the only one)
 };
 
-// Parses and validates a JSON document. Model types, parameter names and ranges, and the
-// signal/state names that points and estimator maps refer to are checked against `models`.
+// Parses and validates a JSON document (strict RFC 8259; unknown and duplicate keys are errors).
+// Model types, parameter names and ranges, and the signal/state names that points and estimator
+// maps refer to are checked against `models`. The rules are in config.hpp and config/README.md.
+// Any thread; pure (no I/O).
 LoadResult load_config_text(std::string_view json_text, const ModelCatalog& models);
 
 // Reads `path` and calls load_config_text. An unreadable file is one error with pointer "".
 LoadResult load_config_file(const std::string& path, const ModelCatalog& models);
 
-// One line per error: "<source>: <pointer>: <message>" (pointer "/" style, "" shown as "(root)").
+// One line per error: "<source>: <pointer>: <message>" (pointer "/" style, "" shown as "(root)"),
+// each ending in '\n'; control characters are written as \u00XX so a line stays one line.
 std::string format_errors(const std::vector<ConfigError>& errors, std::string_view source);
 
 }  // namespace hvac_twin::config

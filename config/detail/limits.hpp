@@ -1,0 +1,23 @@
+// Bounds on configuration values (internal to config/). Generous for any real plant; they
+// exist so that the runtime can turn every duration into integer nanoseconds without overflow
+// and so that a typo (3600000 instead of 3600) is caught. config/README.md lists them.
+#pragma once
+
+#include <cstddef>
+
+namespace hvac_twin::config::detail {
+
+inline constexpr std::size_t kMaxNameLength = 64;    // ids, names, topic prefix, interface
+inline constexpr std::size_t kMaxPathLength = 4096;  // state_directory (PATH_MAX)
+inline constexpr double kMaxPollPeriodS = 3600.0;    // modbus.poll_period_s
+inline constexpr double kMaxTimeoutS = 60.0;         // response and byte timeouts
+inline constexpr double kMaxBackoffS = 3600.0;       // reconnect back-off
+inline constexpr double kMaxStaleAfterS = 86400.0;   // points[].stale_after_s
+inline constexpr double kMaxPeriodS = 86400.0;       // estimator.period_s (model time)
+inline constexpr double kMaxDeadlineS = 3600.0;      // estimator.deadline_s
+inline constexpr double kMinTimeScale = 1e-3;        // runtime.time_scale: period_s / time_scale
+inline constexpr double kMaxTimeScale = 1e6;         //   stays below 1e8 s (int64 nanoseconds)
+inline constexpr double kMaxHangTimeoutS = 86400.0;  // runtime.hang_timeout_s
+inline constexpr int kMaxConsecutiveRejections = 1000000;
+
+}  // namespace hvac_twin::config::detail

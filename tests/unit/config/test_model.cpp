@@ -1,0 +1,253 @@
+// The model section and the estimator: names and values checked against the catalog, the rules
+// between estimator, points and runtime, and many errors in one document.
+#include <catch2/catch.hpp>
+#include <stdexcept>
+
+#include "config_test_support.hpp"
+
+namespace hvac_twin::config {
+namespace {
+
+using nlohmann::json;
+using test::demo_json;
+using test::load;
+using test::load_json;
+using test::require_single_error;
+
+json& model(json& j) {
+  return j["units"][0]["model"];
+}
+json& estimator(json& j) {
+  return j["units"][0]["estimator"];
+}
+
+TEST_CASE("model type must be in the catalog; the message lists the known types", "[config]") {
+  auto j = demo_json();
+  model(j)["type"] = "zone";
+  require_single_error(
+      load_json(j), "/units/0/model/type",
+      {"unknown model type \"zone\"", "did you mean \"zone_rc\"?", "known types: \"zone_rc\""});
+  model(j)["type"] = "heat_pump";
+  require_single_error(load_json(j), "/units/0/model/type",
+                       {"unknown model type \"heat_pump\"", "known types: \"zone_rc\""});
+  model(j).erase("type");
+  require_single_error(load_json(j), "/units/0/model", {"missing required field \"type\""});
+  j.erase("units");
+  j["units"] = demo_json()["units"];
+  j["units"][0].erase("model");
+  require_single_error(load_json(j), "/units/0", {"missing required field \"model\""});
+}
+
+TEST_CASE("model parameters: known names, values inside their range", "[config]") {
+  auto j = demo_json();
+  model(j)["parameters"]["C_ari"] = 2e6;
+  require_single_error(load_json(j), "/units/0/model/parameters/C_ari",
+                       {"unknown parameter \"C_ari\" of model \"zone_rc\"",
+                        "did you mean \"C_air\"?", "\"gain_fraction_air\""});
+  j = demo_json();
+  model(j)["parameters"]["hp_fraction_air"] = 1.5;
+  require_single_error(load_json(j), "/units/0/model/parameters/hp_fraction_air",
+                       {"expected a number in [0, 1] [1]; got 1.5"});
+  model(j)["parameters"]["hp_fraction_air"] = "1";
+  require_single_error(load_json(j), "/units/0/model/parameters/hp_fraction_air",
+                       {"expected a number in [0, 1]", "got \"1\""});
+  j = demo_json();
+  model(j)["parameters"]["C_air"] = 5;
+  require_single_error(load_json(j), "/units/0/model/parameters/C_air",
+                       {"expected a number in [10000, 1e9] [J/K]; got 5"});
+  j = demo_json();
+  model(j)["parameters"] = json::array();
+  require_single_error(load_json(j), "/units/0/model/parameters",
+                       {"expected an object; got an array"});
+  model(j).erase("parameters");
+  const LoadResult r = load_json(j);
+  test::require_ok(r);
+  CHECK(r.config->units[0].model.parameters.empty());
+}
+
+TEST_CASE("an invalid parameter does not hide the errors of points and estimator", "[config]") {
+  auto j = demo_json();
+  model(j)["parameters"]["UA_air_out"] = -5;
+  j["units"][0]["points"][0]["signal"] = "zone_air_temp";
+  const LoadResult r = load_json(j);
+  INFO(test::describe(r));
+  CHECK(r.errors.size() == 2);
+  CHECK(test::has_error(r, "/units/0/model/parameters/UA_air_out", {"got -5"}));
+  CHECK(test::has_error(r, "/units/0/points/0/signal", {"unknown model output"}));
+}
+
+TEST_CASE("estimator maps name existing states with sane values", "[config]") {
+  auto j = demo_json();
+  estimator(j)["process_noise"]["Q_itn"] = 1.0;
+  require_single_error(load_json(j), "/units/0/estimator/process_noise/Q_itn",
+                       {"unknown state \"Q_itn\" of model \"zone_rc\"", "did you mean \"Q_int\"?",
+                        R"("T_air", "T_mass", "Q_int")"});
+  j = demo_json();
+  estimator(j)["process_noise"]["Q_int"] = -1;
+  require_single_error(load_json(j), "/units/0/estimator/process_noise/Q_int",
+                       {"expected a number >= 0 [W/sqrt(s)]; got -1"});
+  estimator(j)["process_noise"]["Q_int"] = 0;
+  test::require_ok(load_json(j));
+
+  j = demo_json();
+  estimator(j)["initial_state"] = {{"T_air", 21.5}, {"T_mass", 100}};
+  require_single_error(load_json(j), "/units/0/estimator/initial_state/T_mass",
+                       {"expected a number in [-40, 70] [degC]; got 100"});
+  j = demo_json();
+  estimator(j)["initial_std"] = {{"T_air", 0}};
+  require_single_error(load_json(j), "/units/0/estimator/initial_std/T_air",
+                       {"expected a number > 0 [degC]; got 0"});
+  estimator(j)["initial_std"] = {{"T_air", 0.5}, {"Q_int", 100}};
+  estimator(j)["initial_state"] = {{"T_air", 21.5}, {"Q_int", 500}};
+  const LoadResult ok = load_json(j);
+  test::require_ok(ok);
+  CHECK(ok.config->units[0].estimator.initial_std.at("Q_int") == 100);
+  CHECK(ok.config->units[0].estimator.initial_state.at("T_air") == 21.5);
+  estimator(j)["initial_state"] = 5;
+  require_single_error(load_json(j), "/units/0/estimator/initial_state",
+                       {"expected an object; got 5"});
+}
+
+TEST_CASE("every measured output has a measurement_noise entry with sigma > 0", "[config]") {
+  auto j = demo_json();
+  estimator(j)["measurement_noise"] = json::object();
+  require_single_error(load_json(j), "/units/0/estimator/measurement_noise",
+                       {"missing entry for measured output \"zone_air_temperature\"",
+                        "point \"zone_temp\"", "[degC], > 0"});
+  estimator(j)["measurement_noise"] = {{"zone_air_temperature", 0}};
+  require_single_error(load_json(j), "/units/0/estimator/measurement_noise/zone_air_temperature",
+                       {"expected a number > 0 [degC]; got 0"});
+  estimator(j).erase("measurement_noise");
+  require_single_error(load_json(j), "/units/0/estimator",
+                       {"missing required field \"measurement_noise\""});
+  j["units"][0].erase("estimator");
+  require_single_error(load_json(j), "/units/0", {"missing required field \"estimator\""});
+}
+
+TEST_CASE("measurement_noise names only outputs that a point measures", "[config]") {
+  auto j = demo_json();
+  estimator(j)["measurement_noise"]["mass_temperature"] = 0.1;
+  require_single_error(load_json(j), "/units/0/estimator/measurement_noise/mass_temperature",
+                       {"output \"mass_temperature\" is not measured by any point"});
+  j = demo_json();
+  estimator(j)["measurement_noise"]["zone_temperature"] = 0.1;
+  require_single_error(load_json(j), "/units/0/estimator/measurement_noise/zone_temperature",
+                       {"unknown model output \"zone_temperature\""});
+}
+
+TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
+  auto j = demo_json();
+  estimator(j)["deadline_s"] = 1.5;  // wall period = 60 s / time_scale 60 = 1 s
+  require_single_error(load_json(j), "/units/0/estimator/deadline_s",
+                       {"deadline_s (1.5 s) must not exceed the wall-clock period period_s / "
+                        "runtime.time_scale = 60 / 60 = 1 s"});
+  estimator(j)["deadline_s"] = 1.0;
+  test::require_ok(load_json(j));
+  j["runtime"]["time_scale"] = 600;
+  require_single_error(load_json(j), "/units/0/estimator/deadline_s", {"= 60 / 600 = 0.1 s"});
+  j = demo_json();
+  estimator(j)["deadline_s"] = 0;
+  require_single_error(load_json(j), "/units/0/estimator/deadline_s",
+                       {"expected a number in (0, 3600] [s]; got 0"});
+  j = demo_json();
+  estimator(j)["period_s"] = -60;
+  require_single_error(load_json(j), "/units/0/estimator/period_s", {"(0, 86400]", "got -60"});
+  j = demo_json();
+  estimator(j)["nis_gate"] = 0;
+  require_single_error(load_json(j), "/units/0/estimator/nis_gate",
+                       {"expected a number > 0; got 0"});
+  j = demo_json();
+  estimator(j)["max_consecutive_rejections"] = 0;
+  require_single_error(load_json(j), "/units/0/estimator/max_consecutive_rejections",
+                       {"expected an integer in [1, 1000000]; got 0"});
+  // An omitted deadline_s takes its default (1 s), too long at time_scale 120.
+  j = demo_json();
+  estimator(j).erase("deadline_s");
+  j["runtime"]["time_scale"] = 120;
+  require_single_error(load_json(j), "/units/0/estimator", {"deadline_s (1 s) must not exceed"});
+}
+
+TEST_CASE("every error of a document is reported, not just the first", "[config]") {
+  auto j = demo_json();
+  j["site_id"] = "demo site";
+  j["units"][0]["modbus"]["port"] = 70000;
+  j["units"][0]["points"][1]["type"] = "float";
+  j["units"][0]["points"][2]["unit"] = "kPa";
+  model(j)["parameters"]["C_mass"] = 0;
+  estimator(j)["process_noise"]["T_ari"] = 1;
+  j["dds"]["domain_id"] = 300;
+  j["runtime"]["log_level"] = "loud";
+  const LoadResult r = load_json(j);
+  INFO(test::describe(r));
+  CHECK_FALSE(r.config.has_value());
+  std::vector<std::string> pointers;
+  for (const auto& e : r.errors)
+    pointers.push_back(e.pointer);
+  // nlohmann::json writes keys sorted, so document order is alphabetical here.
+  CHECK(pointers == std::vector<std::string>{
+                        "/dds/domain_id",
+                        "/runtime/log_level",
+                        "/site_id",
+                        "/units/0/estimator/process_noise/T_ari",
+                        "/units/0/modbus/port",
+                        "/units/0/model/parameters/C_mass",
+                        "/units/0/points/1/type",
+                        "/units/0/points/2/unit",
+                    });
+}
+
+// A catalog with what zone_rc lacks: an integer (structural) parameter that sizes the state,
+// and a layout function that throws.
+ModelCatalog fake_catalog() {
+  plant::ModelSchema cells;
+  cells.type = "cells";
+  cells.parameters = {{"n_cells", "1", 3.0, 1.0, 20.0, true, "number of cells"},
+                      {"ua", "W/K", 10.0, 0.0, 100.0, false, "conductance"}};
+  cells.layout = [](const plant::ParameterMap& p) {
+    plant::ModelLayout l;
+    for (int i = 0; i < static_cast<int>(p.at("n_cells")); ++i) {
+      std::string name = "T";  // appended: GCC 12 warns (-Wrestrict) on "T" + string
+      name += std::to_string(i);
+      l.states.push_back({name, "degC"});
+    }
+    l.outputs.push_back({"T_out", "degC"});
+    return l;
+  };
+  plant::ModelSchema broken = cells;
+  broken.type = "broken";
+  broken.layout = [](const plant::ParameterMap&) -> plant::ModelLayout {
+    throw std::runtime_error("table file missing");
+  };
+  return {cells, broken};
+}
+
+std::string cells_config(std::string_view type, std::string_view parameters,
+                         std::string_view initial_state) {
+  return R"({"site_id": "s", "units": [{"id": "u",
+    "model": {"type": ")" +
+         std::string(type) + R"(", "parameters": )" + std::string(parameters) + R"(},
+    "points": [{"name": "t", "address": 0, "unit": "degC", "range": [0, 100], "signal": "T_out"}],
+    "estimator": {"measurement_noise": {"T_out": 0.1}, "initial_state": )" +
+         std::string(initial_state) + "}}]}";
+}
+
+TEST_CASE("integer parameters must be integral; structural ones size the layout", "[config]") {
+  const ModelCatalog models = fake_catalog();
+  const auto run = [&](std::string_view type, std::string_view params, std::string_view init) {
+    return load_config_text(cells_config(type, params, init), models);
+  };
+  test::require_ok(run("cells", R"({"n_cells": 5})", R"({"T4": 20})"));
+  require_single_error(run("cells", R"({"n_cells": 3})", R"({"T4": 20})"),
+                       "/units/0/estimator/initial_state/T4",
+                       {"unknown state \"T4\"", R"("T0", "T1", "T2")"});
+  require_single_error(run("cells", R"({"n_cells": 2.5})", R"({"T4": 20})"),
+                       "/units/0/model/parameters/n_cells",
+                       {"expected an integer in [1, 20] [1]; got 2.5"});
+  require_single_error(run("cells", R"({"n_cells": 5, "ua": 200})", R"({"T4": 20})"),
+                       "/units/0/model/parameters/ua", {"expected a number in [0, 100]"});
+  require_single_error(run("broken", "{}", "{}"), "/units/0/model/parameters",
+                       {"model \"broken\" rejected these parameters: table file missing"});
+}
+
+}  // namespace
+}  // namespace hvac_twin::config
