@@ -1,0 +1,160 @@
+// Template bodies of the (p, h) table evaluation (included by r32_table.hpp; not for direct use).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "plant_models/refrigerant/r32_table.hpp"
+
+namespace hvac_twin::plant::r32 {
+namespace table_detail {
+
+// One single-phase table at (p, h), given the pressure interval i (length de, basis A) and the
+// lower/upper enthalpy boundary curves of the region at p (values and d/deta).
+template <class S>
+void eval_single(const Node* nodes, const double* xi_nodes, int nx, int i, double de,
+                 const Basis<S>& A, const S& p, const S& h, const S& h_lo, const S& h_lo_e,
+                 const S& h_hi, const S& h_hi_e, PhState<S>& out) {
+  using std::exp;
+  const S D = h_hi - h_lo;
+  const S xi = (h - h_lo) / D;
+  const int j = find_interval(xi_nodes, nx, value_of(xi));
+  const auto dx = xi_nodes[j + 1] - xi_nodes[j];
+  const Basis<S> B((xi - xi_nodes[j]) / dx);
+  const Node& n00 = nodes[i * nx + j];
+  const Node& n01 = nodes[i * nx + j + 1];
+  const Node& n10 = nodes[(i + 1) * nx + j];
+  const Node& n11 = nodes[(i + 1) * nx + j + 1];
+  S T, T_e, T_x, L, L_e, L_x;
+  patch(&n00.T, &n01.T, &n10.T, &n11.T, de, dx, A, B, T, T_e, T_x);
+  patch(&n00.L, &n01.L, &n10.L, &n11.L, de, dx, A, B, L, L_e, L_x);
+  // Chain rule from (eta, xi) to (p, h): xi_h = 1/D, xi_eta = -(h_lo_e + xi D_e)/D, eta_p = 1/p.
+  const S xi_e = -(h_lo_e + xi * (h_hi_e - h_lo_e)) / D;
+  const S inv_p = 1.0 / p;
+  out.T = T;
+  out.dT_dp_h = (T_e + T_x * xi_e) * inv_p;
+  out.dT_dh_p = T_x / D;
+  out.rho = exp(L);
+  out.drho_dp_h = out.rho * (L_e + L_x * xi_e) * inv_p;
+  out.drho_dh_p = out.rho * L_x / D;
+}
+
+}  // namespace table_detail
+
+template <class S>
+PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
+  using std::exp;
+  using std::log;
+  using table_detail::Basis;
+  using table_detail::curve_at;
+  PhState<S> out;
+  if (build_status_ != Status::kOk) {
+    out.status = build_status_;
+    return out;
+  }
+  S p = p_in;
+  const double pv = value_of(p);
+  if (!(pv >= kPmin && pv <= kPmax)) {
+    out.status = Status::kOutOfRange;
+    p = S(std::isnan(pv) ? kPmin : std::clamp(pv, kPmin, kPmax));
+  }
+  const S eta = log(p);
+  const int i = table_detail::find_interval(eta_.data(), table_detail::kNp, value_of(eta));
+  const auto k = static_cast<std::size_t>(i);
+  const double de = eta_[k + 1] - eta_[k];
+  const Basis<S> A((eta - eta_[k]) / de);
+  S hl, hl_e, hv, hv_e;
+  curve_at(h_l_, i, de, A, hl, hl_e);
+  curve_at(h_v_, i, de, A, hv, hv_e);
+
+  S h = h_in;
+  if (!std::isfinite(value_of(h))) {
+    out.status = Status::kOutOfRange;
+    h = hl;
+  }
+  const double hval = value_of(h);
+  if (hval < value_of(hl)) {
+    S lo, lo_e;
+    curve_at(h_min_, i, de, A, lo, lo_e);
+    if (hval < value_of(lo)) {
+      out.status = Status::kOutOfRange;
+      h = lo;
+    }
+    out.region = Region::kLiquid;
+    table_detail::eval_single(liquid_.data(), xi_l_.data(), table_detail::kNxL, i, de, A, p, h, lo,
+                              lo_e, hl, hl_e, out);
+  } else if (hval > value_of(hv)) {
+    S hi, hi_e;
+    curve_at(h_max_, i, de, A, hi, hi_e);
+    if (hval > value_of(hi)) {
+      out.status = Status::kOutOfRange;
+      h = hi;
+    }
+    out.region = Region::kVapour;
+    table_detail::eval_single(vapour_.data(), xi_v_.data(), table_detail::kNxV, i, de, A, p, h, hv,
+                              hv_e, hi, hi_e, out);
+  } else {
+    // Two phase: T = T_sat(p); v = v_l + x (v_v - v_l) with x = (h - h_l)/(h_v - h_l).
+    out.region = Region::kTwoPhase;
+    S Ts, Ts_e, Ll, Ll_e, Lv, Lv_e;
+    curve_at(t_sat_, i, de, A, Ts, Ts_e);
+    curve_at(ln_rho_l_, i, de, A, Ll, Ll_e);
+    curve_at(ln_rho_v_, i, de, A, Lv, Lv_e);
+    const S vl = exp(-Ll);
+    const S vv = exp(-Lv);
+    const S dh = hv - hl;
+    const S x = (h - hl) / dh;
+    const S x_e = -(hl_e + x * (hv_e - hl_e)) / dh;
+    const S v = vl + x * (vv - vl);
+    const S v_e = -vl * Ll_e + x_e * (vv - vl) + x * (vl * Ll_e - vv * Lv_e);
+    out.rho = 1.0 / v;
+    out.drho_dp_h = -out.rho * out.rho * v_e / p;
+    out.drho_dh_p = -out.rho * out.rho * (vv - vl) / dh;
+    out.T = Ts;
+    out.dT_dp_h = Ts_e / p;
+    out.dT_dh_p = S(0.0);
+  }
+  out.quality = (h - hl) / (hv - hl);
+  return out;
+}
+
+template <class S>
+SatState<S> PhTable::sat_p(const S& p_in) const {
+  using std::exp;
+  using std::log;
+  using table_detail::Basis;
+  using table_detail::curve_at;
+  SatState<S> out;
+  if (build_status_ != Status::kOk) {
+    out.status = build_status_;
+    return out;
+  }
+  S p = p_in;
+  const double pv = value_of(p);
+  if (!(pv >= kPmin && pv <= kPmax)) {
+    out.status = Status::kOutOfRange;
+    p = S(std::isnan(pv) ? kPmin : std::clamp(pv, kPmin, kPmax));
+  }
+  const S eta = log(p);
+  const int i = table_detail::find_interval(eta_.data(), table_detail::kNp, value_of(eta));
+  const auto k = static_cast<std::size_t>(i);
+  const double de = eta_[k + 1] - eta_[k];
+  const Basis<S> A((eta - eta_[k]) / de);
+  S T_e, hl_e, hv_e, Ll, Ll_e, Lv, Lv_e;
+  curve_at(t_sat_, i, de, A, out.T, T_e);
+  curve_at(h_l_, i, de, A, out.h_l, hl_e);
+  curve_at(h_v_, i, de, A, out.h_v, hv_e);
+  curve_at(ln_rho_l_, i, de, A, Ll, Ll_e);
+  curve_at(ln_rho_v_, i, de, A, Lv, Lv_e);
+  const S inv_p = 1.0 / p;
+  out.rho_l = exp(Ll);
+  out.rho_v = exp(Lv);
+  out.dT_dp = T_e * inv_p;
+  out.dh_l_dp = hl_e * inv_p;
+  out.dh_v_dp = hv_e * inv_p;
+  out.drho_l_dp = out.rho_l * Ll_e * inv_p;
+  out.drho_v_dp = out.rho_v * Lv_e * inv_p;
+  return out;
+}
+
+}  // namespace hvac_twin::plant::r32
