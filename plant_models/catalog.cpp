@@ -37,7 +37,8 @@ const Entry* find_entry(std::string_view type) {
 const std::vector<ModelSchema>& model_schemas() {
   static const std::vector<ModelSchema> schemas = [] {
     std::vector<ModelSchema> out;
-    for (const auto& e : entries()) out.push_back(e.schema);
+    for (const auto& e : entries())
+      out.push_back(e.schema);
     return out;
   }();
   return schemas;
@@ -50,7 +51,8 @@ const ModelSchema* find_schema(std::string_view type) {
 
 ParameterMap with_defaults(const ModelSchema& schema, const ParameterMap& params) {
   ParameterMap full = params;
-  for (const auto& p : schema.parameters) full.try_emplace(p.name, p.default_value);
+  for (const auto& p : schema.parameters)
+    full.try_emplace(p.name, p.default_value);
   return full;
 }
 

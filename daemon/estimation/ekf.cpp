@@ -41,7 +41,8 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   const auto& states = model.layout().states;
   for (Eigen::Index i = 0; i < n; ++i) {
     const auto& s = states[static_cast<std::size_t>(i)];
-    Qc_(i, i) = process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
+    Qc_(i, i) =
+        process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
     // A standard deviation wider than the state's whole physical range carries no information
     // and only invites overflow: clamp the variance there.
     const double width = s.max - s.min;
@@ -88,7 +89,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
                        std::span<MeasurementReport> reports) {
   ++counters_.updates;
   const std::size_t count = std::min({z.size(), reports.size(), consecutive_rejections_.size()});
-  for (std::size_t i = 0; i < count; ++i) reports[i] = MeasurementReport{};
+  for (std::size_t i = 0; i < count; ++i)
+    reports[i] = MeasurementReport{};
   if (model_.output_jacobian(span_of(x_), u, span_of(y_), span_of(H_)) != plant::kModelOk)
     return StepStatus::kModelError;
   x_prior_ = x_;
@@ -98,8 +100,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     const Measurement& mz = z[i];
     MeasurementReport& rep = reports[i];
     const auto o = static_cast<Eigen::Index>(mz.output);
-    rep.available = mz.available && mz.output < m_ && std::isfinite(mz.value) &&
-                    std::isfinite(mz.variance);
+    rep.available =
+        mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
     if (!rep.available) continue;
     const double r = std::max(mz.variance, options_.min_measurement_variance);
     ph_.noalias() = P_ * H_.row(o).transpose();
@@ -138,15 +140,15 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
   // B = P - k (P hᵀ)ᵀ, then P' = B - (B hᵀ) kᵀ + r k kᵀ.
   b_ = P_;
   for (Eigen::Index c = 0; c < n; ++c)
-    for (Eigen::Index row = 0; row < n; ++row) b_(row, c) -= k_(row) * ph_(c);
+    for (Eigen::Index row = 0; row < n; ++row)
+      b_(row, c) -= k_(row) * ph_(c);
   bh_.noalias() = b_ * H_.row(o).transpose();
   for (Eigen::Index c = 0; c < n; ++c)
     for (Eigen::Index row = 0; row < n; ++row)
       P_(row, c) = b_(row, c) - bh_(row) * k_(c) + r * k_(row) * k_(c);
 }
 
-int Ekf::output_estimates(std::span<const double> u, std::span<double> y,
-                          std::span<double> sigma) {
+int Ekf::output_estimates(std::span<const double> u, std::span<double> y, std::span<double> sigma) {
   const int status = model_.output_jacobian(span_of(x_), u, y, span_of(H_));
   if (status != plant::kModelOk) return status;
   for (std::size_t r = 0; r < m_ && r < sigma.size(); ++r) {

@@ -14,8 +14,8 @@
 // update() and output_estimates() never allocate and never throw. One instance per thread.
 #pragma once
 
-#include <Eigen/Core>
 #include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -110,14 +110,14 @@ class Ekf {
 
   Eigen::VectorXd x_, x_prior_, x_good_;
   Eigen::MatrixXd P_, P_good_, F_, Qc_, Qd_, tmp_;
-  Eigen::MatrixXd H_;   // m x n output Jacobian at x⁻
-  Eigen::VectorXd y_;   // h(x⁻)
+  Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
+  Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;
   Eigen::MatrixXd b_;
   Eigen::VectorXd max_var_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
   std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
-  std::vector<double> x_buf_;                 // contiguous scratch for the integrator
+  std::vector<double> x_buf_;                // contiguous scratch for the integrator
   EkfCounters counters_;
 };
 

@@ -83,9 +83,11 @@ class AdModel final : public ContinuousModel {
       if (status != kModelOk) return status;
       const std::size_t cols = std::min<std::size_t>(K, n - c0);
       for (std::size_t k = 0; k < cols; ++k)
-        for (std::size_t r = 0; r < m; ++r) jac[(c0 + k) * m + r] = out[r].d[k];
+        for (std::size_t r = 0; r < m; ++r)
+          jac[(c0 + k) * m + r] = out[r].d[k];
       if (c0 == 0 && !value.empty())
-        for (std::size_t r = 0; r < m; ++r) value[r] = out[r].v;
+        for (std::size_t r = 0; r < m; ++r)
+          value[r] = out[r].v;
     }
     return kModelOk;
   }

@@ -34,23 +34,27 @@ struct Dual {
 
   Dual& operator+=(const Dual& o) {
     v += o.v;
-    for (int i = 0; i < K; ++i) d[i] += o.d[i];
+    for (int i = 0; i < K; ++i)
+      d[i] += o.d[i];
     return *this;
   }
   Dual& operator-=(const Dual& o) {
     v -= o.v;
-    for (int i = 0; i < K; ++i) d[i] -= o.d[i];
+    for (int i = 0; i < K; ++i)
+      d[i] -= o.d[i];
     return *this;
   }
   Dual& operator*=(const Dual& o) {
-    for (int i = 0; i < K; ++i) d[i] = d[i] * o.v + v * o.d[i];
+    for (int i = 0; i < K; ++i)
+      d[i] = d[i] * o.v + v * o.d[i];
     v *= o.v;
     return *this;
   }
   Dual& operator/=(const Dual& o) {
     const double inv = 1.0 / o.v;
     const double q = v * inv;
-    for (int i = 0; i < K; ++i) d[i] = (d[i] - q * o.d[i]) * inv;
+    for (int i = 0; i < K; ++i)
+      d[i] = (d[i] - q * o.d[i]) * inv;
     v = q;
     return *this;
   }
@@ -64,7 +68,8 @@ struct Dual {
   }
   Dual& operator*=(double c) {
     v *= c;
-    for (int i = 0; i < K; ++i) d[i] *= c;
+    for (int i = 0; i < K; ++i)
+      d[i] *= c;
     return *this;
   }
   Dual& operator/=(double c) { return *this *= (1.0 / c); }
@@ -79,7 +84,9 @@ inline constexpr bool kIsDual = IsDual<T>::value;
 
 // value_of: the plain double of any scalar. Used for branch decisions (which must not depend on
 // derivatives) and for diagnostics.
-inline constexpr double value_of(double x) { return x; }
+inline constexpr double value_of(double x) {
+  return x;
+}
 template <int K>
 constexpr double value_of(const Dual<K>& x) {
   return x.v;
@@ -89,7 +96,8 @@ constexpr double value_of(const Dual<K>& x) {
 template <int K>
 Dual<K> chain(const Dual<K>& x, double f, double df) {
   Dual<K> r(f);
-  for (int i = 0; i < K; ++i) r.d[i] = df * x.d[i];
+  for (int i = 0; i < K; ++i)
+    r.d[i] = df * x.d[i];
   return r;
 }
 
@@ -124,7 +132,8 @@ Dual<K> operator-(Dual<K> a, double c) {
 template <int K>
 Dual<K> operator-(double c, const Dual<K>& a) {
   Dual<K> r(c - a.v);
-  for (int i = 0; i < K; ++i) r.d[i] = -a.d[i];
+  for (int i = 0; i < K; ++i)
+    r.d[i] = -a.d[i];
   return r;
 }
 template <int K>

@@ -21,7 +21,7 @@ struct Integrator::Sundials {
   N_Vector abs_tol = nullptr;
   SUNMatrix jac = nullptr;
   SUNLinearSolver ls = nullptr;
-  N_Vector* yS = nullptr;        // sensitivities, one vector per initial-state component
+  N_Vector* yS = nullptr;         // sensitivities, one vector per initial-state component
   N_Vector* abs_tol_S = nullptr;  // their absolute tolerances
   int ns = 0;
 
@@ -109,7 +109,8 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
   s.abs_tol = check_ptr(N_VNew_Serial(n, s.ctx), "tolerance vector");
   const auto& states = model_.layout().states;
   double* atol = N_VGetArrayPointer(s.abs_tol);
-  for (std::size_t i = 0; i < n_; ++i) atol[i] = options_.abs_tol_scale * states[i].abs_tol;
+  for (std::size_t i = 0; i < n_; ++i)
+    atol[i] = options_.abs_tol_scale * states[i].abs_tol;
 
   s.cvode = check_ptr(CVodeCreate(CV_BDF, s.ctx), "CVodeCreate");
   check(CVodeSetErrHandlerFn(s.cvode, &IntegratorCallbacks::error_handler, this), "err handler");
@@ -132,7 +133,8 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
       N_VConst(0.0, s.yS[j]);
       const double scale_j = atol[j] / options_.rel_tol;  // resolution scale of x0_j
       double* a = N_VGetArrayPointer(s.abs_tol_S[j]);
-      for (std::size_t i = 0; i < n_; ++i) a[i] = atol[i] / scale_j;
+      for (std::size_t i = 0; i < n_; ++i)
+        a[i] = atol[i] / scale_j;
     }
     check(CVodeSensInit(s.cvode, s.ns, CV_STAGGERED, &IntegratorCallbacks::sensitivity_rhs, s.yS),
           "CVodeSensInit");

@@ -22,9 +22,9 @@ struct IntegratorOptions {
   double rel_tol = 1e-6;
   // Absolute tolerance of state i is abs_tol_scale * layout().states[i].abs_tol.
   double abs_tol_scale = 1.0;
-  long max_steps = 20000;       // per step() call
-  double max_step_s = 0.0;      // largest internal step [s]; 0 = unlimited
-  bool sensitivities = false;   // compute F in step()
+  long max_steps = 20000;      // per step() call
+  double max_step_s = 0.0;     // largest internal step [s]; 0 = unlimited
+  bool sensitivities = false;  // compute F in step()
   // Include sensitivities in the local error test. Slower, but F then meets the tolerances
   // itself rather than riding on the state's step sequence. Absolute tolerance of dx_i/dx0_j is
   // abs_tol_i / (abs_tol_j / rel_tol): a perturbation of x0_j at its resolution scale must move
@@ -73,8 +73,8 @@ class Integrator {
   IntegratorOptions options_;
   std::size_t n_;
   std::unique_ptr<Sundials> s_;
-  std::span<const double> u_;           // inputs during the current step
-  std::unique_ptr<double[]> jac_;       // n x n scratch for the sensitivity right-hand side
+  std::span<const double> u_;      // inputs during the current step
+  std::unique_ptr<double[]> jac_;  // n x n scratch for the sensitivity right-hand side
   IntegrationStats stats_;
   std::array<char, 256> last_error_{};
 };

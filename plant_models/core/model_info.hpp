@@ -62,8 +62,12 @@ struct ModelLayout {
       if (list[i].name == name) return i;
     return std::nullopt;
   }
-  [[nodiscard]] std::optional<std::size_t> state(std::string_view n) const { return find(states, n); }
-  [[nodiscard]] std::optional<std::size_t> input(std::string_view n) const { return find(inputs, n); }
+  [[nodiscard]] std::optional<std::size_t> state(std::string_view n) const {
+    return find(states, n);
+  }
+  [[nodiscard]] std::optional<std::size_t> input(std::string_view n) const {
+    return find(inputs, n);
+  }
   [[nodiscard]] std::optional<std::size_t> output(std::string_view n) const {
     return find(outputs, n);
   }

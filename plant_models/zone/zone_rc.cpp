@@ -54,7 +54,8 @@ ZoneRc::ZoneRc(const ParameterMap& values) {
 
 std::vector<ParameterInfo> ZoneRc::parameter_info() {
   std::vector<ParameterInfo> out;
-  for (const auto& e : param_table()) out.push_back(e.info);
+  for (const auto& e : param_table())
+    out.push_back(e.info);
   return out;
 }
 
@@ -62,29 +63,38 @@ ModelLayout ZoneRc::make_layout() {
   ModelLayout l;
   l.states.resize(kNumStates);
   //            name      unit    min     max    init  std   q [unit/sqrt(s)]  abs_tol
-  l.states[kTAir] = {"T_air", "degC", -40.0, 70.0, 20.0, 2.0, 1e-3, 1e-6, false,
-                     "zone air temperature"};
+  l.states[kTAir] = {"T_air", "degC", -40.0, 70.0,  20.0,
+                     2.0,     1e-3,   1e-6,  false, "zone air temperature"};
   // The mass node also takes heat nobody models (solar on the slab, the ground): its random walk
   // (0.03 K per sqrt(h)) keeps the filter from growing overconfident about it. With 1e-4 the
   // integration test saw the mass error reach 3.6 sigma after internal-gain steps; with 5e-4,
   // 2.3 sigma, the gains estimate unchanged.
-  l.states[kTMass] = {"T_mass", "degC", -40.0, 70.0, 20.0, 3.0, 5e-4, 1e-6, false,
-                      "building-mass temperature"};
-  l.states[kQInt] = {"Q_int", "W", -2000.0, 20000.0, 300.0, 300.0, 1.0, 1e-3, true,
-                     "internal heat gains: people, equipment, solar (random walk)"};
+  l.states[kTMass] = {"T_mass", "degC", -40.0, 70.0,  20.0,
+                      3.0,      5e-4,   1e-6,  false, "building-mass temperature"};
+  l.states[kQInt] = {"Q_int", "W",
+                     -2000.0, 20000.0,
+                     300.0,   300.0,
+                     1.0,     1e-3,
+                     true,    "internal heat gains: people, equipment, solar (random walk)"};
   l.inputs.resize(kNumInputs);
-  l.inputs[kQHp] = {"heat_pump_heat", "W", -30000.0, 30000.0, kRequired,
-                    "heat delivered to the zone by the heat pump (negative when cooling)"};
-  l.inputs[kTOut] = {"outdoor_temperature", "degC", -50.0, 60.0, kRequired,
+  l.inputs[kQHp] = {
+      "heat_pump_heat", "W",
+      -30000.0,         30000.0,
+      kRequired,        "heat delivered to the zone by the heat pump (negative when cooling)"};
+  l.inputs[kTOut] = {"outdoor_temperature",    "degC", -50.0, 60.0, kRequired,
                      "outdoor air temperature"};
   l.outputs.resize(kNumOutputs);
   l.outputs[kZoneAirTemperature] = {"zone_air_temperature", "degC", -40.0, 70.0, kRequired,
                                     "zone air temperature"};
-  l.outputs[kMassTemperature] = {"mass_temperature", "degC", -40.0, 70.0, kRequired,
-                                 "building-mass temperature (unmeasured)"};
-  l.outputs[kInternalGains] = {"internal_gains", "W", -2000.0, 20000.0, kRequired,
-                               "internal heat gains (unmeasured)"};
-  l.outputs[kEnvelopeHeatLoss] = {"envelope_heat_loss", "W", -1e6, 1e6, kRequired,
+  l.outputs[kMassTemperature] = {
+      "mass_temperature", "degC", -40.0, 70.0, kRequired, "building-mass temperature (unmeasured)"};
+  l.outputs[kInternalGains] = {"internal_gains", "W",       -2000.0,
+                               20000.0,          kRequired, "internal heat gains (unmeasured)"};
+  l.outputs[kEnvelopeHeatLoss] = {"envelope_heat_loss",
+                                  "W",
+                                  -1e6,
+                                  1e6,
+                                  kRequired,
                                   "heat flow from the zone to outdoors through the envelope"};
   return l;
 }

@@ -37,13 +37,13 @@ class ZoneRc {
   };
 
   struct Params {
-    double c_air = 2.0e6;             // J/K   air, furniture, light partitions
-    double c_mass = 3.0e7;            // J/K   slab and walls
-    double ua_air_mass = 600.0;       // W/K   air <-> mass surface coupling
-    double ua_air_out = 120.0;        // W/K   windows and ventilation
-    double ua_mass_out = 60.0;        // W/K   opaque envelope
-    double hp_fraction_air = 1.0;     // 1     share of heat-pump heat to the air node
-    double gain_fraction_air = 0.6;   // 1     share of internal gains to the air node
+    double c_air = 2.0e6;            // J/K   air, furniture, light partitions
+    double c_mass = 3.0e7;           // J/K   slab and walls
+    double ua_air_mass = 600.0;      // W/K   air <-> mass surface coupling
+    double ua_air_out = 120.0;       // W/K   windows and ventilation
+    double ua_mass_out = 60.0;       // W/K   opaque envelope
+    double hp_fraction_air = 1.0;    // 1     share of heat-pump heat to the air node
+    double gain_fraction_air = 0.6;  // 1     share of internal gains to the air node
   };
 
   static constexpr const char* kType = "zone_rc";
@@ -67,8 +67,8 @@ class ZoneRc {
     xdot[kTAir] = (q_am + p_.ua_air_out * (t_out - t_air) + p_.hp_fraction_air * q_hp +
                    p_.gain_fraction_air * q_int) /
                   p_.c_air;
-    xdot[kTMass] = (-q_am + p_.ua_mass_out * (t_out - t_mass) +
-                    (1.0 - p_.hp_fraction_air) * q_hp + (1.0 - p_.gain_fraction_air) * q_int) /
+    xdot[kTMass] = (-q_am + p_.ua_mass_out * (t_out - t_mass) + (1.0 - p_.hp_fraction_air) * q_hp +
+                    (1.0 - p_.gain_fraction_air) * q_int) /
                    p_.c_mass;
     xdot[kQInt] = S(0.0);
     return kModelOk;
@@ -80,7 +80,8 @@ class ZoneRc {
     y[kZoneAirTemperature] = x[kTAir];
     y[kMassTemperature] = x[kTMass];
     y[kInternalGains] = x[kQInt];
-    y[kEnvelopeHeatLoss] = p_.ua_air_out * (x[kTAir] - t_out) + p_.ua_mass_out * (x[kTMass] - t_out);
+    y[kEnvelopeHeatLoss] =
+        p_.ua_air_out * (x[kTAir] - t_out) + p_.ua_mass_out * (x[kTMass] - t_out);
     return kModelOk;
   }
 

@@ -79,8 +79,8 @@ TEST_CASE("EKF on the linear zone model equals the closed-form Kalman filter", "
 
     const std::vector<double> u{s.q_hp, s.t_out};
     REQUIRE(ekf.predict(u, dt) == est::StepStatus::kOk);
-    const est::Measurement m{.output = ZoneRc::kZoneAirTemperature, .value = z, .variance = r,
-                             .available = true};
+    const est::Measurement m{
+        .output = ZoneRc::kZoneAirTemperature, .value = z, .variance = r, .available = true};
     est::MeasurementReport rep;
     REQUIRE(ekf.update({&m, 1}, u, {&rep, 1}) == est::StepStatus::kOk);
     REQUIRE(rep.fused);
@@ -140,7 +140,8 @@ TEST_CASE("EKF is consistent: time-averaged NIS inside the 95% chi-square band",
     const std::vector<double> u{s.q_hp, s.t_out};
     REQUIRE(ekf.predict(u, dt) == est::StepStatus::kOk);
     const est::Measurement m{.output = ZoneRc::kZoneAirTemperature,
-                             .value = truth(0) + std::sqrt(r) * g(rng), .variance = r,
+                             .value = truth(0) + std::sqrt(r) * g(rng),
+                             .variance = r,
                              .available = true};
     est::MeasurementReport rep;
     REQUIRE(ekf.update({&m, 1}, u, {&rep, 1}) == est::StepStatus::kOk);

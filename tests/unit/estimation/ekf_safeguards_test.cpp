@@ -113,7 +113,7 @@ TEST_CASE("variances are clamped to the state's physical range", "[ekf][health]"
   est::Ekf ekf(model, std::vector<double>{10.0}, 1, est::EkfOptions{});
   ekf.reset(std::vector<double>{0.5}, std::vector<double>{0.1});
   REQUIRE(ekf.predict({}, 100.0) == est::StepStatus::kOk);  // adds variance 1e4
-  CHECK(ekf.covariance()(0, 0) == Approx(1.0));            // (max - min)^2
+  CHECK(ekf.covariance()(0, 0) == Approx(1.0));             // (max - min)^2
 }
 
 TEST_CASE("output estimates carry delta-method standard deviations", "[ekf]") {

@@ -1,7 +1,7 @@
+#include "plant_models/core/dual.hpp"
+
 #include <catch2/catch.hpp>
 #include <cmath>
-
-#include "plant_models/core/dual.hpp"
 
 using hvac_twin::plant::Dual;
 using D = Dual<2>;
@@ -15,7 +15,9 @@ double fd(F f, double x) {
   return (f(x + h) - f(x - h)) / (2.0 * h);
 }
 
-D seed(double v) { return D(v, {1.0, 0.0}); }
+D seed(double v) {
+  return D(v, {1.0, 0.0});
+}
 
 }  // namespace
 
@@ -28,8 +30,8 @@ TEST_CASE("dual arithmetic follows the product and quotient rules", "[dual]") {
   CHECK(p.d[1] == 3.0);   // d(ab)/db = a
   const D q = a / b;
   CHECK(q.v == Approx(-1.5));
-  CHECK(q.d[0] == Approx(-0.5));         // 1/b
-  CHECK(q.d[1] == Approx(-3.0 / 4.0));   // -a/b^2
+  CHECK(q.d[0] == Approx(-0.5));        // 1/b
+  CHECK(q.d[1] == Approx(-3.0 / 4.0));  // -a/b^2
   const D r = 2.0 - a * 4.0 + 1.0 / b;
   CHECK(r.v == Approx(2.0 - 12.0 - 0.5));
   CHECK(r.d[0] == Approx(-4.0));
@@ -47,10 +49,8 @@ TEST_CASE("dual elementary functions match finite differences", "[dual]") {
           Approx(fd([](double t) { return std::log1p(t); }, x)).epsilon(1e-8));
     CHECK(expm1(seed(x)).d[0] ==
           Approx(fd([](double t) { return std::expm1(t); }, x)).epsilon(1e-8));
-    CHECK(sqrt(seed(x)).d[0] ==
-          Approx(fd([](double t) { return std::sqrt(t); }, x)).epsilon(1e-8));
-    CHECK(cbrt(seed(x)).d[0] ==
-          Approx(fd([](double t) { return std::cbrt(t); }, x)).epsilon(1e-8));
+    CHECK(sqrt(seed(x)).d[0] == Approx(fd([](double t) { return std::sqrt(t); }, x)).epsilon(1e-8));
+    CHECK(cbrt(seed(x)).d[0] == Approx(fd([](double t) { return std::cbrt(t); }, x)).epsilon(1e-8));
     CHECK(pow(seed(x), 2.5).d[0] ==
           Approx(fd([](double t) { return std::pow(t, 2.5); }, x)).epsilon(1e-8));
     CHECK(pow(seed(x), seed(x)).d[0] ==
@@ -60,10 +60,8 @@ TEST_CASE("dual elementary functions match finite differences", "[dual]") {
     CHECK(sin(seed(x)).d[0] == Approx(fd([](double t) { return std::sin(t); }, x)).epsilon(1e-8));
     CHECK(cos(seed(x)).d[0] ==
           Approx(fd([](double t) { return std::cos(t); }, x)).epsilon(1e-8).margin(1e-9));
-    CHECK(tanh(seed(x)).d[0] ==
-          Approx(fd([](double t) { return std::tanh(t); }, x)).epsilon(1e-6));
-    CHECK(atan(seed(x)).d[0] ==
-          Approx(fd([](double t) { return std::atan(t); }, x)).epsilon(1e-8));
+    CHECK(tanh(seed(x)).d[0] == Approx(fd([](double t) { return std::tanh(t); }, x)).epsilon(1e-6));
+    CHECK(atan(seed(x)).d[0] == Approx(fd([](double t) { return std::atan(t); }, x)).epsilon(1e-8));
   }
 }
 

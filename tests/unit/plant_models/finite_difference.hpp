@@ -23,7 +23,8 @@ inline std::vector<double> central_jacobian(
     xp[j] = x[j] - h;
     fn(xp, fm);
     xp[j] = x[j];
-    for (std::size_t i = 0; i < m; ++i) jac[j * m + i] = (fp[i] - fm[i]) / (2.0 * h);
+    for (std::size_t i = 0; i < m; ++i)
+      jac[j * m + i] = (fp[i] - fm[i]) / (2.0 * h);
   }
   return jac;
 }

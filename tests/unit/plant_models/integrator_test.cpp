@@ -1,3 +1,5 @@
+#include "plant_models/core/integrator.hpp"
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <unsupported/Eigen/MatrixFunctions>
@@ -5,7 +7,6 @@
 
 #include "finite_difference.hpp"
 #include "plant_models/core/ad_model.hpp"
-#include "plant_models/core/integrator.hpp"
 #include "plant_models/zone/zone_rc.hpp"
 
 using namespace hvac_twin::plant;
@@ -101,7 +102,8 @@ TEST_CASE("integrator matches the matrix exponential on the linear zone model", 
   const Eigen::Vector4d z0(x[0], x[1], x[2], 1.0);
   const Eigen::Vector4d z1 = E * z0;
   REQUIRE(integ.step(x, u, dt, F).ok());
-  for (int i = 0; i < 3; ++i) CHECK(x[i] == Approx(z1(i)).epsilon(1e-7));
+  for (int i = 0; i < 3; ++i)
+    CHECK(x[i] == Approx(z1(i)).epsilon(1e-7));
   for (int c = 0; c < 3; ++c)
     for (int r = 0; r < 3; ++r)
       CHECK(F[static_cast<std::size_t>(c * 3 + r)] == Approx(E(r, c)).epsilon(1e-6).margin(1e-10));
@@ -142,12 +144,14 @@ TEST_CASE("sensitivities of a stiff problem equal finite differences of the solu
     INFO("column " << c << ": F = " << F[c * 3] << " " << F[c * 3 + 1] << " " << F[c * 3 + 2]
                    << ", fd = " << fd[c * 3] << " " << fd[c * 3 + 1] << " " << fd[c * 3 + 2]);
     double col_norm = 0.0;
-    for (int r = 0; r < 3; ++r) col_norm = std::max(col_norm, std::abs(fd[c * 3 + r]));
+    for (int r = 0; r < 3; ++r)
+      col_norm = std::max(col_norm, std::abs(fd[c * 3 + r]));
     for (int r = 0; r < 3; ++r)
       CHECK(std::abs(F[c * 3 + r] - fd[c * 3 + r]) < 1e-5 * col_norm + 1e-9);
   }
   // Mass conservation carries to the sensitivities: each column of F sums to 1.
-  for (int c = 0; c < 3; ++c) CHECK(F[c * 3] + F[c * 3 + 1] + F[c * 3 + 2] == Approx(1.0));
+  for (int c = 0; c < 3; ++c)
+    CHECK(F[c * 3] + F[c * 3 + 1] + F[c * 3 + 2] == Approx(1.0));
 }
 
 TEST_CASE("a recoverable model error makes CVODES retry; a fatal one fails the step",

@@ -1,3 +1,5 @@
+#include "plant_models/zone/zone_rc.hpp"
+
 #include <catch2/catch.hpp>
 #include <random>
 #include <set>
@@ -7,7 +9,6 @@
 #include "finite_difference.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/core/ad_model.hpp"
-#include "plant_models/zone/zone_rc.hpp"
 
 using namespace hvac_twin::plant;
 
@@ -42,14 +43,15 @@ TEST_CASE("zone_rc AD Jacobians equal finite differences at random states", "[zo
         [&](std::span<const double> xs, std::span<double> out) { model.rhs(xs, u, out); }, x, n,
         floor);
     const auto fd_h = hvac_twin::test::central_jacobian(
-        [&](std::span<const double> xs, std::span<double> out) { model.outputs(xs, u, out); }, x,
-        m, floor);
+        [&](std::span<const double> xs, std::span<double> out) { model.outputs(xs, u, out); }, x, m,
+        floor);
     worst_f = std::max(worst_f, hvac_twin::test::max_rel_error(jac, fd_f, 1e-9));
     worst_h = std::max(worst_h, hvac_twin::test::max_rel_error(hjac, fd_h, 1e-9));
     // The value returned with the Jacobian is the plain evaluation.
     std::vector<double> plain(n);
     model.rhs(x, u, plain);
-    for (std::size_t i = 0; i < n; ++i) CHECK(xdot[i] == Approx(plain[i]));
+    for (std::size_t i = 0; i < n; ++i)
+      CHECK(xdot[i] == Approx(plain[i]));
   }
   INFO("largest relative error, f: " << worst_f << ", h: " << worst_h);
   CHECK(worst_f < 1e-6);
@@ -93,9 +95,12 @@ TEST_CASE("zone_rc is in the catalog with consistent parameters and layout", "[z
   CHECK(layout.inputs.size() == ZoneRc::kNumInputs);
   CHECK(layout.outputs.size() == ZoneRc::kNumOutputs);
   std::set<std::string> names;
-  for (const auto& s : layout.states) names.insert(s.name);
-  for (const auto& s : layout.inputs) names.insert(s.name);
-  for (const auto& s : layout.outputs) names.insert(s.name);
+  for (const auto& s : layout.states)
+    names.insert(s.name);
+  for (const auto& s : layout.inputs)
+    names.insert(s.name);
+  for (const auto& s : layout.outputs)
+    names.insert(s.name);
   CHECK(names.size() == layout.states.size() + layout.inputs.size() + layout.outputs.size());
   for (const auto& s : layout.states) {
     CHECK(s.initial >= s.min);
