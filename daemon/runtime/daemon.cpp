@@ -1,0 +1,92 @@
+#include "daemon/runtime/daemon.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "daemon/runtime/clock.hpp"
+
+namespace hvac_twin::runtime {
+
+Daemon::Daemon(config::Config config, std::shared_ptr<spdlog::logger> log, FaultHooks hooks)
+    : config_(std::move(config)), log_(std::move(log)), hooks_(hooks) {}
+
+Daemon::~Daemon() {
+  stop();
+}
+
+void Daemon::start() {
+  participant_ = std::make_unique<dds::Participant>(config_.dds);
+  log_->info("DDS domain {} on interface {}, topics {}/*", config_.dds.domain_id,
+             config_.dds.interface, config_.dds.topic_prefix);
+  for (std::size_t i = 0; i < config_.units.size(); ++i) {
+    pipelines_.push_back(std::make_unique<UnitPipeline>(config_, i, *participant_, log_, hooks_));
+    const auto& u = config_.units[i];
+    log_->info(
+        "unit {}: model {} ({} states), {} points from {}:{} unit {}, period {} s "
+        "(wall {:.3f} s), deadline {} s",
+        u.id, u.model.type, pipelines_.back()->filter().num_states(), u.points.size(),
+        u.modbus.host, u.modbus.port, u.modbus.unit_id, u.estimator.period_s,
+        static_cast<double>(pipelines_.back()->wall_period_ns()) * 1e-9, u.estimator.deadline_s);
+  }
+
+  SupervisorOptions sup;
+  sup.hang_timeout_ns = static_cast<std::int64_t>(config_.runtime.hang_timeout_s * 1e9);
+  sup.hang_exit = config_.runtime.hang_exit;
+  sup.overrun_limit = config_.runtime.overruns_before_watchdog_stop;
+  sup.min_ping_interval_ns = notifier_.watchdog_interval_ns() / 4;
+  supervisor_ = std::make_unique<CycleSupervisor>(
+      pipelines_.size(), notifier_, sup, [this](std::size_t unit, std::int64_t running_ns) {
+        log_->critical("unit {}: cycle hung for {:.1f} s{}", pipelines_[unit]->id(),
+                       static_cast<double>(running_ns) * 1e-9,
+                       config_.runtime.hang_exit ? "; exiting so the service is restarted" : "");
+        log_->flush();
+      });
+  supervisor_->start();
+
+  const std::int64_t start = monotonic_ns();
+  for (std::size_t i = 0; i < pipelines_.size(); ++i) {
+    pipelines_[i]->start();
+    // The first cycle one wall period after start: the poller has read every point by then.
+    const std::int64_t period = pipelines_[i]->wall_period_ns();
+    schedulers_.push_back(std::make_unique<FixedRateScheduler>(start + period, period));
+  }
+  for (std::size_t i = 0; i < pipelines_.size(); ++i)
+    threads_.emplace_back([this, i] { run_unit(i); });
+  running_ = true;
+  notifier_.ready();
+  notifier_.status("running " + std::to_string(pipelines_.size()) + " unit(s)");
+  log_->info("hvac-twind running: site {}, {} unit(s)", config_.site_id, pipelines_.size());
+}
+
+void Daemon::run_unit(std::size_t index) {
+  UnitPipeline& pipeline = *pipelines_[index];
+  FixedRateScheduler& scheduler = *schedulers_[index];
+  Tick tick;
+  while (scheduler.wait_next(tick)) {
+    supervisor_->cycle_started(index, tick.woke_ns);
+    const CycleOutcome out = pipeline.run_cycle(tick);
+    if (out.overrun)
+      log_->warn("unit {}: cycle {} overran its deadline: {:.1f} ms", pipeline.id(), tick.index,
+                 static_cast<double>(out.cycle_ns) * 1e-6);
+    supervisor_->cycle_finished(index, monotonic_ns(), out.overrun);
+  }
+}
+
+void Daemon::stop() {
+  if (!running_ && threads_.empty()) return;
+  notifier_.stopping();
+  for (auto& s : schedulers_)
+    s->stop();
+  for (auto& p : pipelines_)
+    p->stop();  // also releases a cycle held by a fault hook
+  for (auto& t : threads_)
+    if (t.joinable()) t.join();
+  threads_.clear();
+  if (supervisor_) supervisor_->stop();
+  pipelines_.clear();
+  participant_.reset();
+  running_ = false;
+  log_->info("hvac-twind stopped");
+}
+
+}  // namespace hvac_twin::runtime

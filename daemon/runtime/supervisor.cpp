@@ -1,0 +1,91 @@
+#include "daemon/runtime/supervisor.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+
+#include "daemon/runtime/clock.hpp"
+
+namespace hvac_twin::runtime {
+
+CycleSupervisor::CycleSupervisor(std::size_t units, const SystemdNotifier& notifier,
+                                 SupervisorOptions options,
+                                 std::function<void(std::size_t, std::int64_t)> on_hang)
+    : notifier_(notifier),
+      options_(options),
+      on_hang_(std::move(on_hang)),
+      units_(new UnitState[units]),
+      count_(units) {}
+
+CycleSupervisor::~CycleSupervisor() {
+  stop();
+}
+
+void CycleSupervisor::start() {
+  thread_ = std::thread([this] { run(); });
+}
+
+void CycleSupervisor::stop() {
+  {
+    std::lock_guard lock(stop_mutex_);
+    stop_ = true;
+  }
+  stop_cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void CycleSupervisor::cycle_started(std::size_t unit, std::int64_t now_ns) {
+  units_[unit].cycle_start_ns.store(now_ns == 0 ? 1 : now_ns);
+}
+
+bool CycleSupervisor::cycle_finished(std::size_t unit, std::int64_t now_ns, bool overrun) {
+  units_[unit].cycle_start_ns.store(0);
+  std::lock_guard lock(mutex_);
+  UnitState& u = units_[unit];
+  u.consecutive_overruns = overrun ? u.consecutive_overruns + 1 : 0;
+  u.progressed = true;
+  for (std::size_t i = 0; i < count_; ++i) {
+    if (!units_[i].progressed || units_[i].consecutive_overruns >= options_.overrun_limit)
+      return false;
+  }
+  if (last_ping_ns_ != 0 && now_ns - last_ping_ns_ < options_.min_ping_interval_ns) return false;
+  for (std::size_t i = 0; i < count_; ++i)
+    units_[i].progressed = false;
+  last_ping_ns_ = now_ns;
+  notifier_.watchdog();
+  pings_.fetch_add(1);
+  return true;
+}
+
+bool CycleSupervisor::pings_withheld() const {
+  std::lock_guard lock(mutex_);
+  for (std::size_t i = 0; i < count_; ++i)
+    if (units_[i].consecutive_overruns >= options_.overrun_limit) return true;
+  return false;
+}
+
+void CycleSupervisor::run() {
+  std::unique_lock lock(stop_mutex_);
+  while (!stop_) {
+    stop_cv_.wait_for(lock, std::chrono::nanoseconds(options_.check_interval_ns),
+                      [this] { return stop_; });
+    if (stop_) break;
+    const std::int64_t now = monotonic_ns();
+    for (std::size_t i = 0; i < count_; ++i) {
+      UnitState& u = units_[i];
+      const std::int64_t started = u.cycle_start_ns.load();
+      if (started == 0) {
+        u.hang_reported = false;
+        continue;
+      }
+      const std::int64_t running = now - started;
+      if (running <= options_.hang_timeout_ns || u.hang_reported) continue;
+      u.hang_reported = true;
+      hangs_.fetch_add(1);
+      if (on_hang_) on_hang_(i, running);
+      if (options_.hang_exit) _exit(70);  // EX_SOFTWARE: let the service manager restart us
+    }
+  }
+}
+
+}  // namespace hvac_twin::runtime

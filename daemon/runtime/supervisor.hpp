@@ -1,0 +1,82 @@
+// Cycle supervision for every unit of the daemon.
+//
+// Liveness to systemd: WATCHDOG=1 is sent from the end of a completed cycle, and only when every
+// unit has completed a cycle since the previous ping and none has overrun its deadline
+// `overrun_limit` times in a row. A hung or persistently late estimator therefore stops the
+// pings and systemd restarts the service; a free-running timer would hide it.
+//
+// Hang detection: a thread checks that no cycle has been running longer than hang_timeout. A hung
+// cycle is reported once through the callback; with hang_exit the process then exits with
+// status 70 (EX_SOFTWARE) so that its supervisor (systemd's Restart=on-failure) restarts it even
+// when no systemd watchdog is configured.
+//
+// Threads: cycle_started()/cycle_finished() from each unit's cycle thread (a short lock, no
+// allocation); start()/stop() from the owner. The callback runs on the supervisor thread.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "daemon/runtime/notify.hpp"
+
+namespace hvac_twin::runtime {
+
+struct SupervisorOptions {
+  std::int64_t hang_timeout_ns = 30'000'000'000;
+  bool hang_exit = true;
+  int overrun_limit = 3;                  // consecutive overruns that stop the pings
+  std::int64_t min_ping_interval_ns = 0;  // pings no more often than this
+  std::int64_t check_interval_ns = 100'000'000;
+};
+
+class CycleSupervisor {
+ public:
+  // on_hang(unit, running_for_ns) is called once per hung cycle, before a hang_exit.
+  CycleSupervisor(std::size_t units, const SystemdNotifier& notifier, SupervisorOptions options,
+                  std::function<void(std::size_t, std::int64_t)> on_hang);
+  ~CycleSupervisor();
+  CycleSupervisor(const CycleSupervisor&) = delete;
+  CycleSupervisor& operator=(const CycleSupervisor&) = delete;
+
+  void start();
+  void stop();
+
+  void cycle_started(std::size_t unit, std::int64_t now_ns);
+  // Returns true when this call sent WATCHDOG=1.
+  bool cycle_finished(std::size_t unit, std::int64_t now_ns, bool overrun);
+
+  [[nodiscard]] std::uint64_t pings() const { return pings_.load(); }
+  [[nodiscard]] std::uint64_t hangs() const { return hangs_.load(); }
+  [[nodiscard]] bool pings_withheld() const;  // some unit is over its overrun limit
+
+ private:
+  struct UnitState {
+    std::atomic<std::int64_t> cycle_start_ns{0};  // 0 = not in a cycle
+    bool hang_reported = false;                   // supervisor thread only
+    bool progressed = false;                      // guarded by mutex_
+    int consecutive_overruns = 0;                 // guarded by mutex_
+  };
+  void run();
+
+  const SystemdNotifier& notifier_;
+  SupervisorOptions options_;
+  std::function<void(std::size_t, std::int64_t)> on_hang_;
+  std::unique_ptr<UnitState[]> units_;
+  std::size_t count_;
+  mutable std::mutex mutex_;
+  std::int64_t last_ping_ns_ = 0;
+  std::atomic<std::uint64_t> pings_{0};
+  std::atomic<std::uint64_t> hangs_{0};
+  std::mutex stop_mutex_;
+  std::condition_variable stop_cv_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace hvac_twin::runtime

@@ -1,0 +1,312 @@
+#include "daemon/runtime/unit_pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "daemon/runtime/clock.hpp"
+#include "plant_models/catalog.hpp"
+
+namespace hvac_twin::runtime {
+namespace {
+
+dds::PointQuality wire_quality(modbus::PointQuality q) {
+  switch (q) {
+    case modbus::PointQuality::kNotYetRead:
+      return dds::PointQuality::kNotYetRead;
+    case modbus::PointQuality::kGood:
+      return dds::PointQuality::kGood;
+    case modbus::PointQuality::kStale:
+      return dds::PointQuality::kStale;
+    case modbus::PointQuality::kCommFail:
+      return dds::PointQuality::kCommFail;
+    case modbus::PointQuality::kDeviceException:
+      return dds::PointQuality::kDeviceException;
+    case modbus::PointQuality::kOutOfRange:
+      return dds::PointQuality::kOutOfRange;
+  }
+  return dds::PointQuality::kNotYetRead;
+}
+
+config::Conversion must_convert(const std::string& from, const std::string& to,
+                                const std::string& what) {
+  const auto c = config::conversion(from, to);
+  if (!c)
+    throw std::invalid_argument(what + ": unit \"" + from + "\" does not convert to \"" + to +
+                                "\"");
+  return *c;
+}
+
+double lookup(const std::map<std::string, double>& m, const std::string& key, double fallback) {
+  const auto it = m.find(key);
+  return it == m.end() ? fallback : it->second;
+}
+
+}  // namespace
+
+UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
+                           dds::Participant& participant, std::shared_ptr<spdlog::logger> log,
+                           FaultHooks hooks)
+    : unit_(config.units.at(unit_index)),
+      site_(config.site_id),
+      log_(std::move(log)),
+      hooks_(hooks),
+      period_s_(unit_.estimator.period_s),
+      wall_period_ns_(static_cast<std::int64_t>(
+          std::llround(unit_.estimator.period_s / config.runtime.time_scale * 1e9))),
+      deadline_ns_(static_cast<std::int64_t>(std::llround(unit_.estimator.deadline_s * 1e9))) {
+  model_ = plant::create_model(unit_.model.type, unit_.model.parameters);
+  const plant::ModelLayout& layout = model_->layout();
+
+  // Initial state, its uncertainty and the process noise: model defaults, then configuration.
+  std::vector<double> q;
+  for (const auto& s : layout.states) {
+    x0_.push_back(lookup(unit_.estimator.initial_state, s.name, s.initial));
+    std0_.push_back(lookup(unit_.estimator.initial_std, s.name, s.initial_std));
+    q.push_back(lookup(unit_.estimator.process_noise, s.name, s.process_noise));
+  }
+
+  // Bind points to model inputs and outputs.
+  for (std::size_t i = 0; i < layout.inputs.size(); ++i) {
+    InputBinding b;
+    b.input = i;
+    b.value = layout.inputs[i].default_value;
+    b.have = std::isfinite(b.value);
+    for (std::size_t p = 0; p < unit_.points.size(); ++p) {
+      const auto& pc = unit_.points[p];
+      if (pc.role == config::PointRole::kMeasured || pc.signal != layout.inputs[i].name) continue;
+      b.point = static_cast<long>(p);
+      b.to_model = must_convert(pc.unit, layout.inputs[i].unit, "point " + pc.name);
+    }
+    if (b.point < 0 && !b.have)
+      throw std::invalid_argument("model input " + layout.inputs[i].name + " has no point");
+    inputs_.push_back(b);
+  }
+  for (std::size_t p = 0; p < unit_.points.size(); ++p) {
+    const auto& pc = unit_.points[p];
+    if (pc.role != config::PointRole::kMeasured) continue;
+    const auto out = layout.output(pc.signal);
+    if (!out) throw std::invalid_argument("point " + pc.name + ": unknown output " + pc.signal);
+    MeasuredBinding b;
+    b.point = p;
+    b.output = *out;
+    b.to_model = must_convert(pc.unit, layout.outputs[*out].unit, "point " + pc.name);
+    const double sigma = lookup(unit_.estimator.measurement_noise, pc.signal, 0.0);
+    if (!(sigma > 0.0)) throw std::invalid_argument("no measurement noise for " + pc.signal);
+    b.variance = sigma * sigma;
+    measured_.push_back(b);
+  }
+
+  est::EkfOptions opt;
+  opt.nis_gate = unit_.estimator.nis_gate;
+  opt.max_consecutive_rejections = unit_.estimator.max_consecutive_rejections;
+  ekf_ = std::make_unique<est::Ekf>(*model_, q, measured_.size(), opt);
+
+  samples_.resize(unit_.points.size());
+  u_.assign(layout.inputs.size(), 0.0);
+  u_prev_ = u_;
+  y_.assign(layout.outputs.size(), 0.0);
+  sigma_ = y_;
+  z_.resize(measured_.size());
+  reports_.resize(measured_.size());
+
+  poller_ =
+      std::make_unique<modbus::Poller>(unit_.modbus, unit_.points, [this](const modbus::Event& e) {
+        const bool bad = e.kind == modbus::EventKind::kDisconnected ||
+                         e.kind == modbus::EventKind::kConnectFailed;
+        log_->log(bad ? spdlog::level::warn : spdlog::level::info, "unit {}: modbus {}:{}: {}",
+                  unit_.id, unit_.modbus.host, unit_.modbus.port, e.message);
+      });
+  publisher_ =
+      std::make_unique<dds::UnitPublisher>(participant, config.dds.topic_prefix, site_, unit_.id,
+                                           std::chrono::nanoseconds(wall_period_ns_));
+}
+
+UnitPipeline::~UnitPipeline() {
+  stop();
+}
+
+void UnitPipeline::start() {
+  stopping_ = false;
+  poller_->start();
+}
+
+void UnitPipeline::stop() {
+  stopping_ = true;
+  if (poller_) poller_->stop();
+}
+
+bool UnitPipeline::read_inputs(std::uint32_t& flags) {
+  bool ready = true;
+  for (auto& b : inputs_) {
+    if (b.point >= 0) {
+      const auto& s = samples_[static_cast<std::size_t>(b.point)];
+      if (s.quality == modbus::PointQuality::kGood) {
+        b.value = b.to_model.apply(s.value);
+        b.have = true;
+      } else if (b.have) {
+        flags |= dds::kFlagInputHeld;  // zero-order hold of the last good value
+      }
+    }
+    if (!b.have) ready = false;
+    u_[b.input] = b.value;
+  }
+  return ready;
+}
+
+void UnitPipeline::build_measurements() {
+  for (std::size_t i = 0; i < measured_.size(); ++i) {
+    const auto& b = measured_[i];
+    const auto& s = samples_[b.point];
+    z_[i] = est::Measurement{.output = b.output,
+                             .value = b.to_model.apply(s.value),
+                             .variance = b.variance,
+                             .available = s.quality == modbus::PointQuality::kGood};
+  }
+}
+
+void UnitPipeline::fault_hooks(std::uint64_t cycle) {
+  if (hooks_.hang_at_cycle != 0 && cycle == hooks_.hang_at_cycle) {
+    log_->warn("unit {}: fault hook: cycle {} hangs", unit_.id, cycle);
+    while (!stopping_.load())
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (hooks_.extra_cycle_delay_ns > 0)
+    std::this_thread::sleep_for(std::chrono::nanoseconds(hooks_.extra_cycle_delay_ns));
+}
+
+CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
+  const std::int64_t start = monotonic_ns();
+  const std::int64_t stamp = realtime_ns();
+  poller_->snapshot(samples_, start, &device_);
+  CycleOutcome out;
+  std::uint32_t flags = 0;
+  const bool inputs_ready = read_inputs(flags);
+
+  if (!initialized_ && inputs_ready) {
+    ekf_->reset(x0_, std0_);
+    initialized_ = true;
+    have_prev_ = false;
+    flags |= dds::kFlagColdStart;
+    log_->info("unit {}: estimator started", unit_.id);
+  }
+  if (initialized_) {
+    out.ran_estimator = true;
+    if (have_prev_) {
+      // dt from the tick stamps: skipped ticks advance the model by more than one period.
+      const double dt = period_s_ * static_cast<double>(tick.ticks_since_last);
+      const est::StepStatus st = ekf_->predict(u_prev_, dt);
+      if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
+      if (st == est::StepStatus::kModelError) flags |= dds::kFlagPredictOnly;
+    }
+    fault_hooks(tick.index);
+    bool fused_any = false;
+    if (monotonic_ns() - start > deadline_ns_) {
+      flags |= dds::kFlagDeadlineOverrun;  // out of time: predict only
+    } else {
+      build_measurements();
+      const est::StepStatus st = ekf_->update(z_, u_, reports_);
+      if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
+      for (const auto& r : reports_)
+        fused_any = fused_any || r.fused;
+    }
+    if (!fused_any) flags |= dds::kFlagPredictOnly;
+    u_prev_ = u_;
+    have_prev_ = true;
+  }
+
+  const bool estimates_valid =
+      initialized_ && ekf_->output_estimates(u_, y_, sigma_) == plant::kModelOk;
+  if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;
+  out.quality = !estimates_valid ? dds::EstimateQuality::kNotReady
+                : flags & (dds::kFlagPredictOnly | dds::kFlagInputHeld | dds::kFlagNumericalReset |
+                           dds::kFlagDeadlineOverrun)
+                    ? dds::EstimateQuality::kDegraded
+                    : dds::EstimateQuality::kGood;
+  if (out.quality == dds::EstimateQuality::kDegraded) ++degraded_cycles_;
+  note_quality(out.quality, flags);
+  publish(stamp, tick.index, out.quality, flags, estimates_valid);
+
+  const std::int64_t end = monotonic_ns();
+  out.cycle_ns = end - start;
+  out.overrun = out.cycle_ns > deadline_ns_;
+  if (out.overrun) ++overruns_;
+  cycle_ns_ = out.cycle_ns;
+  if (out.cycle_ns > cycle_max_ns_) cycle_max_ns_ = out.cycle_ns;
+  publish_health(stamp, tick.index, out.quality);
+  return out;
+}
+
+void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
+                           std::uint32_t flags, bool estimates_valid) {
+  const plant::ModelLayout& layout = model_->layout();
+  if (estimates_valid) {
+    for (std::size_t i = 0; i < y_.size(); ++i) {
+      publisher_->publish(dds::VirtualSensorSample{.name = layout.outputs[i].name,
+                                                   .value = y_[i],
+                                                   .sigma = sigma_[i],
+                                                   .eng_unit = layout.outputs[i].unit,
+                                                   .quality = quality,
+                                                   .flags = flags,
+                                                   .timestamp_ns = stamp_ns,
+                                                   .cycle = cycle});
+    }
+  }
+  for (std::size_t i = 0; i < measured_.size(); ++i) {
+    const auto& b = measured_[i];
+    const auto& s = samples_[b.point];
+    const auto& r = reports_[i];
+    // Reported in the point's own unit: invert the affine conversion to the model's unit.
+    const double scale = b.to_model.scale;
+    const double predicted = (r.predicted - b.to_model.offset) / scale;
+    const bool tested = r.available && initialized_;
+    publisher_->publish(dds::ObservationSample{
+        .point = unit_.points[b.point].name,
+        .value = s.value,
+        .quality = wire_quality(s.quality),
+        .exception_code = s.exception_code,
+        .predicted = tested ? predicted : 0.0,
+        .innovation = tested ? s.value - predicted : 0.0,
+        .innovation_variance = tested ? r.innovation_variance / (scale * scale) : 0.0,
+        .test_ratio = tested ? r.test_ratio : 0.0,
+        .fused = r.fused,
+        .timestamp_ns = stamp_ns,
+        .cycle = cycle});
+  }
+  if (!estimates_valid || measured_.empty()) publisher_->assert_liveliness();
+}
+
+void UnitPipeline::publish_health(std::int64_t stamp_ns, std::uint64_t cycle,
+                                  dds::EstimateQuality quality) {
+  const auto& c = ekf_->counters();
+  publisher_->publish(
+      dds::HealthSample{.cycle = cycle,
+                        .cycle_time_ms = static_cast<double>(cycle_ns_) * 1e-6,
+                        .cycle_time_max_ms = static_cast<double>(cycle_max_ns_) * 1e-6,
+                        .overruns = overruns_,
+                        .degraded_cycles = degraded_cycles_,
+                        .gate_rejections = c.gate_rejections,
+                        .numerical_resets = c.numerical_resets,
+                        .quality = quality,
+                        .modbus_connected = device_.connected,
+                        .modbus_polls_ok = device_.polls_ok,
+                        .modbus_polls_failed = device_.polls_failed,
+                        .modbus_reconnects = device_.reconnects,
+                        .modbus_last_error = device_.last_error,
+                        .timestamp_ns = stamp_ns});
+}
+
+void UnitPipeline::note_quality(dds::EstimateQuality quality, std::uint32_t flags) {
+  if (quality == last_quality_ && flags == last_flags_) return;
+  if (quality != last_quality_) {
+    const auto level =
+        quality == dds::EstimateQuality::kGood ? spdlog::level::info : spdlog::level::warn;
+    log_->log(level, "unit {}: estimates {} (flags 0x{:02x})", unit_.id, dds::to_string(quality),
+              flags);
+  }
+  last_quality_ = quality;
+  last_flags_ = flags & ~dds::kFlagColdStart;
+}
+
+}  // namespace hvac_twin::runtime

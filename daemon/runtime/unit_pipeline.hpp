@@ -1,0 +1,115 @@
+// One unit's estimator cycle: Modbus snapshot -> inputs -> predict -> (deadline check) -> gated
+// update -> virtual sensors with delta-method sigma -> DDS samples.
+//
+// Everything is built and sized in the constructor (start-up: allocates, throws on a bad model
+// or a DDS/Modbus set-up failure); run_cycle() never allocates and never throws.
+// Threads: the constructor, start() and stop() on the owner thread; run_cycle() on the unit's
+// cycle thread only.
+#pragma once
+
+#include <spdlog/logger.h>
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "config/config.hpp"
+#include "config/units.hpp"
+#include "daemon/estimation/ekf.hpp"
+#include "daemon/runtime/scheduler.hpp"
+#include "io/dds/participant.hpp"
+#include "io/dds/publisher.hpp"
+#include "io/modbus/poller.hpp"
+#include "plant_models/core/model.hpp"
+
+namespace hvac_twin::runtime {
+
+// Test hooks (command-line options of hvac-twind, never set in production).
+struct FaultHooks {
+  std::uint64_t hang_at_cycle = 0;        // this cycle blocks until stop(); 0 = never
+  std::int64_t extra_cycle_delay_ns = 0;  // added after predict in every cycle (forces overruns)
+};
+
+struct CycleOutcome {
+  bool overrun = false;
+  bool ran_estimator = false;  // false while waiting for the first inputs
+  dds::EstimateQuality quality = dds::EstimateQuality::kNotReady;
+  std::int64_t cycle_ns = 0;
+};
+
+class UnitPipeline {
+ public:
+  UnitPipeline(const config::Config& config, std::size_t unit_index, dds::Participant& participant,
+               std::shared_ptr<spdlog::logger> log, FaultHooks hooks = {});
+  ~UnitPipeline();
+  UnitPipeline(const UnitPipeline&) = delete;
+  UnitPipeline& operator=(const UnitPipeline&) = delete;
+
+  void start();  // starts the Modbus poller
+  void stop();   // stops the poller and releases a cycle blocked in a fault hook
+
+  CycleOutcome run_cycle(const Tick& tick);
+
+  [[nodiscard]] const std::string& id() const { return unit_.id; }
+  [[nodiscard]] std::int64_t wall_period_ns() const { return wall_period_ns_; }
+  [[nodiscard]] const est::Ekf& filter() const { return *ekf_; }
+
+ private:
+  struct InputBinding {
+    std::size_t input = 0;  // model input index
+    long point = -1;        // point index, -1: the model default feeds it
+    config::Conversion to_model;
+    double value = 0.0;  // last good value [model unit]
+    bool have = false;
+  };
+  struct MeasuredBinding {
+    std::size_t point = 0;
+    std::size_t output = 0;
+    config::Conversion to_model;
+    double variance = 0.0;  // [model unit²]
+  };
+
+  bool read_inputs(std::uint32_t& flags);
+  void build_measurements();
+  void publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
+               std::uint32_t flags, bool estimates_valid);
+  void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
+  void note_quality(dds::EstimateQuality quality, std::uint32_t flags);
+  void fault_hooks(std::uint64_t cycle);
+
+  config::UnitConfig unit_;
+  std::string site_;
+  std::shared_ptr<spdlog::logger> log_;
+  FaultHooks hooks_;
+  double period_s_;              // model seconds per tick
+  std::int64_t wall_period_ns_;  // wall nanoseconds per tick
+  std::int64_t deadline_ns_;
+
+  std::unique_ptr<plant::ContinuousModel> model_;
+  std::unique_ptr<est::Ekf> ekf_;
+  std::unique_ptr<modbus::Poller> poller_;
+  std::unique_ptr<dds::UnitPublisher> publisher_;
+
+  std::vector<double> x0_, std0_;
+  std::vector<InputBinding> inputs_;
+  std::vector<MeasuredBinding> measured_;
+  std::vector<modbus::PointSample> samples_;
+  modbus::DeviceStatus device_{};
+  std::vector<double> u_, u_prev_, y_, sigma_;
+  std::vector<est::Measurement> z_;
+  std::vector<est::MeasurementReport> reports_;
+
+  bool initialized_ = false;
+  bool have_prev_ = false;
+  std::atomic<bool> stopping_{false};
+  std::uint64_t overruns_ = 0;
+  std::uint64_t degraded_cycles_ = 0;
+  std::int64_t cycle_ns_ = 0;
+  std::int64_t cycle_max_ns_ = 0;
+  dds::EstimateQuality last_quality_ = dds::EstimateQuality::kNotReady;
+  std::uint32_t last_flags_ = 0;
+};
+
+}  // namespace hvac_twin::runtime

@@ -1,0 +1,132 @@
+// The whole product on loopback for integration tests: hvac-twin-sim serving the plant over
+// Modbus TCP, hvac-twind estimating, hvac-twin-echo recording every DDS sample as JSON lines.
+// Each stack gets its own directory, DDS domain and Modbus port, so tests run in parallel.
+#pragma once
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "tests/integration/process.hpp"
+
+namespace hvac_twin::test {
+
+struct StackOptions {
+  int domain_id = 50;
+  double time_scale = 1200.0;  // model seconds per wall second
+  double period_s = 120.0;     // model seconds per estimator cycle
+  double deadline_s = 0.05;    // wall
+  double poll_period_s = 0.025;
+  double sim_step_s = 10.0;  // model seconds per truth step
+  std::uint64_t seed = 1;
+};
+
+class Stack {
+ public:
+  Stack(const std::string& name, StackOptions o) : o_(o) {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("hvac-twin-it-" + name + "-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  ~Stack() {
+    echo_.reset();
+    daemon_.reset();
+    sim_.reset();
+  }
+
+  std::string path(const std::string& file) const { return (dir_ / file).string(); }
+
+  // Starts the simulator (port 0: ephemeral, learnt from its first line) and returns its port.
+  int start_sim(int port = 0) {
+    write_config(port == 0 ? 1 : port);  // the simulator reads the same file
+    sim_ = std::make_unique<Process>(
+        HVAC_TWIN_SIM_EXE,
+        std::vector<std::string>{
+            "--config", path("config.json"), "--port", std::to_string(port), "--seed",
+            std::to_string(o_.seed), "--step", std::to_string(o_.sim_step_s), "--truth-csv",
+            path("truth-" + std::to_string(++sim_starts_) + ".csv"), "--quiet"},
+        path("sim.out"), path("sim.err"));
+    const std::regex line(R"(127\.0\.0\.1:(\d+) unit id)");
+    std::smatch m;
+    std::string out;
+    const bool up = eventually(
+        [&] {
+          out = sim_->out();
+          return std::regex_search(out, m, line) && out.find("\n", m.position()) != out.npos;
+        },
+        std::chrono::seconds(10));
+    if (!up) throw std::runtime_error("simulator did not start: " + sim_->err());
+    port_ = std::stoi(m[1].str());
+    return port_;
+  }
+  void stop_sim() {
+    sim_->signal(SIGTERM);
+    sim_->wait(std::chrono::seconds(10));
+  }
+
+  void start_daemon(const std::vector<std::string>& extra_args = {},
+                    const std::vector<std::string>& env = {}) {
+    write_config(port_);
+    std::vector<std::string> args{"--config", path("config.json")};
+    args.insert(args.end(), extra_args.begin(), extra_args.end());
+    daemon_ = std::make_unique<Process>(HVAC_TWIND_EXE, args, path("daemon.out"),
+                                        path("daemon.err"), env);
+  }
+
+  void start_echo(double duration_s) {
+    echo_ = std::make_unique<Process>(
+        HVAC_TWIN_ECHO_EXE,
+        std::vector<std::string>{"--domain", std::to_string(o_.domain_id), "--format", "json",
+                                 "--duration", std::to_string(duration_s)},
+        path("echo.jsonl"), path("echo.err"));
+  }
+
+  Process& sim() { return *sim_; }
+  Process& daemon() { return *daemon_; }
+  Process& echo() { return *echo_; }
+  int port() const { return port_; }
+  const StackOptions& options() const { return o_; }
+
+  // Every JSON line the echo has written so far (a partial last line is skipped).
+  std::vector<nlohmann::json> samples() const {
+    std::vector<nlohmann::json> out;
+    std::ifstream f(path("echo.jsonl"));
+    std::string line;
+    while (std::getline(f, line)) {
+      if (f.eof()) break;  // no newline yet: still being written
+      out.push_back(nlohmann::json::parse(line));
+    }
+    return out;
+  }
+
+  // The demo configuration, made fast and private to this stack.
+  void write_config(int port) const {
+    std::ifstream in(std::string(HVAC_TWIN_SOURCE_DIR) + "/config/demo.json");
+    nlohmann::json c = nlohmann::json::parse(in);
+    auto& unit = c["units"][0];
+    unit["modbus"]["port"] = port;
+    unit["modbus"]["poll_period_s"] = o_.poll_period_s;
+    unit["modbus"]["response_timeout_s"] = o_.poll_period_s * 0.4;
+    unit["modbus"]["byte_timeout_s"] = o_.poll_period_s * 0.2;
+    unit["estimator"]["period_s"] = o_.period_s;
+    unit["estimator"]["deadline_s"] = o_.deadline_s;
+    c["dds"]["domain_id"] = o_.domain_id;
+    c["runtime"]["time_scale"] = o_.time_scale;
+    c["state_directory"] = path("state");
+    std::ofstream(path("config.json")) << c.dump(2);
+  }
+
+ private:
+  StackOptions o_;
+  std::filesystem::path dir_;
+  int port_ = 0;
+  int sim_starts_ = 0;
+  std::unique_ptr<Process> sim_, daemon_, echo_;
+};
+
+}  // namespace hvac_twin::test

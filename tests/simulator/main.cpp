@@ -1,0 +1,219 @@
+// hvac-twin-sim: a truth simulation of one configured unit, served over Modbus TCP on 127.0.0.1.
+//
+// It reads the daemon's own configuration, so each point is served at the address, type, word
+// order, scale and offset the daemon decodes. SIGUSR1 takes the Modbus server down (the device
+// "disappears") and brings it back on the next SIGUSR1; the truth keeps running meanwhile.
+#include <signal.h>
+#include <time.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config/load.hpp"
+#include "plant_models/catalog.hpp"
+#include "tests/simulator/simulation.hpp"
+#include "tests/support/modbus_test_server.hpp"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_toggles{0};
+
+void on_signal(int sig) {
+  if (sig == SIGUSR1)
+    g_toggles.fetch_add(1);
+  else
+    g_stop = true;
+}
+
+void usage(std::FILE* to) {
+  std::fputs(
+      "usage: hvac-twin-sim --config FILE [options]\n"
+      "\n"
+      "Simulates the plant of one unit of an hvac-twin configuration and serves its sensor\n"
+      "points over Modbus TCP on 127.0.0.1 (the port and unit id of the unit's modbus section).\n"
+      "\n"
+      "  --config FILE       hvac-twin configuration (the same file the daemon reads)\n"
+      "  --unit ID           which unit (default: the first)\n"
+      "  --port N            serve on this port instead of the configured one (0: ephemeral)\n"
+      "  --seed N            random seed of the scenario and the sensor noise (default 1)\n"
+      "  --time-scale X      model seconds per wall second (default: runtime.time_scale)\n"
+      "  --step S            model seconds per truth step (default 5)\n"
+      "  --noise-scale X     sensor noise = X * the unit's measurement_noise (default 1)\n"
+      "  --set NAME=VALUE    a truth parameter differing from the configuration (repeatable)\n"
+      "  --truth-csv FILE    write the simulated truth, one row per step\n"
+      "  --duration S        stop after S wall seconds (default: run until SIGINT/SIGTERM)\n"
+      "  --quiet             no progress lines\n"
+      "\n"
+      "SIGUSR1 stops the Modbus server; the next SIGUSR1 starts it again on the same port.\n",
+      to);
+}
+
+std::int64_t now_ns(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+void sleep_until(std::int64_t deadline_ns) {
+  timespec ts{static_cast<time_t>(deadline_ns / 1'000'000'000),
+              static_cast<long>(deadline_ns % 1'000'000'000)};
+  while (!g_stop && clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+}
+
+struct Args {
+  std::string config, unit, truth_csv;
+  long port = -1;
+  double time_scale = 0.0, duration = 0.0;
+  bool quiet = false;
+  hvac_twin::sim::SimOptions sim;
+};
+
+bool parse(int argc, char** argv, Args& a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
+    auto take = [&]() {
+      ++i;
+      return std::string(v);
+    };
+    if (arg == "--quiet") {
+      a.quiet = true;
+    } else if (v == nullptr) {
+      return false;
+    } else if (arg == "--config") {
+      a.config = take();
+    } else if (arg == "--unit") {
+      a.unit = take();
+    } else if (arg == "--truth-csv") {
+      a.truth_csv = take();
+    } else if (arg == "--port") {
+      a.port = std::stol(take());
+    } else if (arg == "--seed") {
+      a.sim.seed = std::stoull(take());
+    } else if (arg == "--time-scale") {
+      a.time_scale = std::stod(take());
+    } else if (arg == "--step") {
+      a.sim.step_s = std::stod(take());
+    } else if (arg == "--noise-scale") {
+      a.sim.noise_scale = std::stod(take());
+    } else if (arg == "--duration") {
+      a.duration = std::stod(take());
+    } else if (arg == "--set") {
+      const std::string kv = take();
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) return false;
+      a.sim.parameter_overrides[kv.substr(0, eq)] = std::stod(kv.substr(eq + 1));
+    } else {
+      return false;
+    }
+  }
+  return !a.config.empty() && a.sim.step_s > 0.0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  try {
+    if (!parse(argc, argv, args)) {
+      usage(stderr);
+      return 2;
+    }
+  } catch (const std::exception&) {
+    usage(stderr);
+    return 2;
+  }
+  const auto loaded =
+      hvac_twin::config::load_config_file(args.config, hvac_twin::plant::model_schemas());
+  if (!loaded.errors.empty()) {
+    std::fputs(hvac_twin::config::format_errors(loaded.errors, args.config).c_str(), stderr);
+    return hvac_twin::config::kExitConfigError;
+  }
+  const auto& cfg = *loaded.config;
+  const hvac_twin::config::UnitConfig* unit = &cfg.units.front();
+  for (const auto& u : cfg.units)
+    if (u.id == args.unit) unit = &u;
+  if (!args.unit.empty() && unit->id != args.unit) {
+    std::fprintf(stderr, "hvac-twin-sim: no unit \"%s\" in %s\n", args.unit.c_str(),
+                 args.config.c_str());
+    return 2;
+  }
+  const double time_scale = args.time_scale > 0.0 ? args.time_scale : cfg.runtime.time_scale;
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGUSR1, &sa, nullptr);
+
+  try {
+    hvac_twin::sim::Simulation sim(*unit, args.sim);
+    hvac_twin::test_support::ModbusTestServerOptions so;
+    so.port = static_cast<std::uint16_t>(args.port >= 0 ? args.port : unit->modbus.port);
+    so.unit_id = unit->modbus.unit_id;
+    hvac_twin::test_support::ModbusTestServer server(so);
+    std::vector<double> values(unit->points.size());
+    auto publish = [&] {
+      sim.point_values(values);
+      for (std::size_t i = 0; i < values.size(); ++i)
+        server.set_value(unit->points[i], values[i]);
+    };
+    publish();
+    server.start();
+    std::ofstream csv;
+    if (!args.truth_csv.empty()) {
+      csv.open(args.truth_csv);
+      if (!csv) throw std::runtime_error("cannot write " + args.truth_csv);
+      sim.write_csv_header(csv);
+      sim.write_csv_row(csv, now_ns(CLOCK_REALTIME));
+    }
+    std::printf(
+        "hvac-twin-sim: unit %s (%s), Modbus TCP 127.0.0.1:%u unit id %d, time scale %g, "
+        "seed %llu\n",
+        unit->id.c_str(), unit->model.type.c_str(), server.port(), so.unit_id, time_scale,
+        static_cast<unsigned long long>(args.sim.seed));
+    std::fflush(stdout);
+
+    const auto wall_step = static_cast<std::int64_t>(args.sim.step_s / time_scale * 1e9);
+    const std::int64_t start = now_ns(CLOCK_MONOTONIC);
+    const auto end = static_cast<std::int64_t>(args.duration * 1e9);
+    int toggles_seen = 0;
+    for (std::int64_t k = 1; !g_stop; ++k) {
+      sleep_until(start + k * wall_step);
+      if (g_stop || (end > 0 && now_ns(CLOCK_MONOTONIC) - start >= end)) break;
+      if (!sim.step()) {
+        std::fprintf(stderr, "hvac-twin-sim: truth integration failed at t = %g s\n", sim.time_s());
+        return 1;
+      }
+      publish();
+      if (csv.is_open()) sim.write_csv_row(csv, now_ns(CLOCK_REALTIME));
+      for (const int t = g_toggles.load(); toggles_seen < t; ++toggles_seen) {
+        if (server.running())
+          server.stop();
+        else
+          server.start();
+        std::printf("hvac-twin-sim: Modbus server %s\n", server.running() ? "up" : "down");
+        std::fflush(stdout);
+      }
+      const auto per_hour = static_cast<std::int64_t>(3600.0 / args.sim.step_s);
+      if (!args.quiet && per_hour > 0 && k % per_hour == 0) {
+        std::printf("hvac-twin-sim: t = %5.1f h\n", sim.time_s() / 3600.0);
+        std::fflush(stdout);
+      }
+    }
+    server.stop();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hvac-twin-sim: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,61 @@
+// A truth simulation of one configured unit: the plant model (with its own, possibly perturbed,
+// parameters) driven by a scenario, and the sensor values it would show on each Modbus point.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <memory>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "config/config.hpp"
+#include "config/units.hpp"
+#include "plant_models/core/integrator.hpp"
+#include "plant_models/core/model.hpp"
+#include "tests/simulator/scenario.hpp"
+
+namespace hvac_twin::sim {
+
+struct SimOptions {
+  std::uint64_t seed = 1;
+  double step_s = 5.0;       // model seconds per truth step
+  double noise_scale = 1.0;  // sensor noise sigma = noise_scale * the unit's measurement_noise
+  plant::ParameterMap parameter_overrides;  // truth parameters differing from the configuration
+};
+
+class Simulation {
+ public:
+  Simulation(const config::UnitConfig& unit, const SimOptions& options);
+
+  // Advances the truth by one step. False if the integrator failed.
+  bool step();
+
+  // One engineering value per configured point, in the point's unit: measured points show the
+  // true output plus Gaussian noise, input and disturbance points the input applied.
+  void point_values(std::span<double> out);
+
+  [[nodiscard]] double time_s() const { return t_; }
+  [[nodiscard]] const plant::ContinuousModel& model() const { return *model_; }
+  [[nodiscard]] std::span<const double> state() const { return x_; }
+  [[nodiscard]] std::span<const double> inputs() const { return u_; }
+
+  // CSV of the truth: wall_time_ns, t_s, every state, input and output by name (model units).
+  void write_csv_header(std::ostream& out) const;
+  void write_csv_row(std::ostream& out, std::int64_t wall_time_ns);
+
+ private:
+  config::UnitConfig unit_;
+  SimOptions options_;
+  std::unique_ptr<plant::ContinuousModel> model_;
+  std::unique_ptr<plant::Integrator> integrator_;
+  std::unique_ptr<Scenario> scenario_;
+  std::vector<double> x_, u_, y_;
+  std::vector<config::Conversion> to_point_;  // model unit -> point unit, per point
+  std::vector<double> noise_sigma_;           // per point [model unit]
+  std::vector<long> signal_;                  // per point: output or input index
+  std::mt19937_64 rng_;
+  double t_ = 0.0;
+};
+
+}  // namespace hvac_twin::sim
