@@ -33,7 +33,18 @@ void Daemon::start() {
   sup.hang_timeout_ns = static_cast<std::int64_t>(config_.runtime.hang_timeout_s * 1e9);
   sup.hang_exit = config_.runtime.hang_exit;
   sup.overrun_limit = config_.runtime.overruns_before_watchdog_stop;
-  sup.min_ping_interval_ns = notifier_.watchdog_interval_ns() / 4;
+  // Rate-limited to an eighth of WatchdogSec, so the gap between pings stays below
+  // WatchdogSec / 8 + one cycle period.
+  sup.min_ping_interval_ns = notifier_.watchdog_interval_ns() / 8;
+  for (const auto& p : pipelines_) {
+    if (notifier_.watchdog_interval_ns() > 0 &&
+        p->wall_period_ns() > notifier_.watchdog_interval_ns() / 2)
+      log_->warn(
+          "unit {}: cycle period {:.3f} s is longer than half of WatchdogSec ({:.3f} s): "
+          "systemd will consider the service hung",
+          p->id(), static_cast<double>(p->wall_period_ns()) * 1e-9,
+          static_cast<double>(notifier_.watchdog_interval_ns()) * 1e-9);
+  }
   supervisor_ = std::make_unique<CycleSupervisor>(
       pipelines_.size(), notifier_, sup, [this](std::size_t unit, std::int64_t running_ns) {
         log_->critical("unit {}: cycle hung for {:.1f} s{}", pipelines_[unit]->id(),

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -23,6 +24,7 @@ struct StackOptions {
   double poll_period_s = 0.025;
   double sim_step_s = 10.0;  // model seconds per truth step
   std::uint64_t seed = 1;
+  std::function<void(nlohmann::json&)> customize;  // last edit of the configuration
 };
 
 class Stack {
@@ -118,6 +120,7 @@ class Stack {
     c["dds"]["domain_id"] = o_.domain_id;
     c["runtime"]["time_scale"] = o_.time_scale;
     c["state_directory"] = path("state");
+    if (o_.customize) o_.customize(c);
     std::ofstream(path("config.json")) << c.dump(2);
   }
 

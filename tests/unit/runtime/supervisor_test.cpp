@@ -8,7 +8,7 @@
 
 #include "daemon/runtime/clock.hpp"
 #include "daemon/runtime/notify.hpp"
-#include "notify_socket.hpp"
+#include "tests/support/notify_socket.hpp"
 
 using namespace hvac_twin::runtime;
 using namespace std::chrono_literals;

@@ -1,0 +1,158 @@
+// hvac-twind as a service manager sees it: configuration errors exit 78 with every error at its
+// JSON pointer; READY=1 after start-up and WATCHDOG=1 only from completed cycles; a hung cycle or
+// repeated overruns stop the pings; SIGTERM shuts down cleanly within one period.
+#include <catch2/catch.hpp>
+#include <thread>
+
+#include "tests/integration/stack.hpp"
+#include "tests/support/notify_socket.hpp"
+
+using namespace hvac_twin::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+std::string source(const std::string& file) {
+  return std::string(HVAC_TWIN_SOURCE_DIR) + "/" + file;
+}
+
+// Times [s since `start`] at which each WATCHDOG=1 arrived.
+std::vector<double> watchdog_times(NotifySocket& socket, std::chrono::milliseconds listen) {
+  std::vector<double> times;
+  const auto start = std::chrono::steady_clock::now();
+  const auto end = start + listen;
+  while (std::chrono::steady_clock::now() < end) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        end - std::chrono::steady_clock::now());
+    for (const auto& m : socket.receive(std::min(left, std::chrono::milliseconds(50))))
+      if (m == "WATCHDOG=1")
+        times.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  return times;
+}
+
+double largest_gap(const std::vector<double>& t, double from) {
+  double gap = 0.0, last = from;
+  for (double x : t) {
+    gap = std::max(gap, x - last);
+    last = x;
+  }
+  return gap;
+}
+
+}  // namespace
+
+TEST_CASE("check-config names every error by JSON pointer and exits 78", "[integration][cli]") {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  Process bad(HVAC_TWIND_EXE, {"--check-config", source("config/examples/several-errors.json")},
+              dir + "/cc-bad.out", dir + "/cc-bad.err");
+  REQUIRE(bad.wait(10s) == 78);
+  const std::string err = bad.err();
+  CHECK_THAT(err, Catch::Contains("/units/0/modbus/port: expected an integer in [1, 65535]"));
+  CHECK_THAT(err, Catch::Contains("/units/0/points/2/type: expected one of"));
+  CHECK_THAT(err, Catch::Contains("/units/0/points/1: missing required field \"signal\""));
+  CHECK_THAT(err, Catch::Contains("error(s)"));
+
+  Process good(HVAC_TWIND_EXE, {"--check-config", source("config/demo.json")}, dir + "/cc-good.out",
+               dir + "/cc-good.err");
+  REQUIRE(good.wait(10s) == 0);
+  CHECK_THAT(good.out(), Catch::Contains("valid"));
+
+  // Started as a service with a bad file, it refuses to start with the same status.
+  Process daemon(HVAC_TWIND_EXE, {"--config", source("config/examples/several-errors.json")},
+                 dir + "/cc-d.out", dir + "/cc-d.err");
+  REQUIRE(daemon.wait(10s) == 78);
+  CHECK_THAT(daemon.err(), Catch::Contains("not starting"));
+}
+
+TEST_CASE("READY=1 after start-up, WATCHDOG=1 from completed cycles, clean SIGTERM",
+          "[integration][systemd]") {
+  StackOptions o;
+  o.domain_id = 53;
+  o.time_scale = 60.0;
+  o.period_s = 30.0;  // 0.5 s wall
+  o.poll_period_s = 0.1;
+  Stack stack("notify", o);
+  stack.start_sim();
+  NotifySocket systemd;
+  stack.start_daemon({}, {"NOTIFY_SOCKET=" + systemd.path(), "WATCHDOG_USEC=2000000"});
+  const auto ready = systemd.receive(10s, "READY=1");
+  REQUIRE(!ready.empty());
+  CHECK(ready.back() == "READY=1");
+  // WatchdogSec = 2 s: pings at least every half of it (rate-limited to an eighth, 0.25 s).
+  const auto pings = watchdog_times(systemd, 4s);
+  INFO("pings: " << pings.size() << ", largest gap " << largest_gap(pings, 0.0) << " s");
+  CHECK(pings.size() >= 5);
+  CHECK(largest_gap(pings, 0.0) <= 1.0);
+
+  const auto before = std::chrono::steady_clock::now();
+  stack.daemon().signal(SIGTERM);
+  const auto rc = stack.daemon().wait(5s);
+  const double took =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - before).count();
+  REQUIRE(rc.has_value());
+  CHECK(*rc == 0);
+  INFO("shut down in " << took << " s");
+  CHECK(took < 0.5);  // within one (wall) period
+  const auto bye = systemd.receive(1s, "STOPPING=1");
+  CHECK(std::find(bye.begin(), bye.end(), "STOPPING=1") != bye.end());
+}
+
+TEST_CASE("a hung cycle stops the pings, then the daemon exits 70", "[integration][systemd]") {
+  StackOptions o;
+  o.domain_id = 54;
+  o.time_scale = 60.0;
+  o.period_s = 12.0;  // 0.2 s wall
+  o.poll_period_s = 0.05;
+  o.customize = [](nlohmann::json& c) { c["runtime"]["hang_timeout_s"] = 2.0; };
+  Stack stack("hang", o);
+  stack.start_sim();
+  NotifySocket systemd;
+  stack.start_daemon({"--fault-hang-at-cycle", "10"},
+                     {"NOTIFY_SOCKET=" + systemd.path(), "WATCHDOG_USEC=1000000"});
+  REQUIRE(!systemd.receive(10s, "READY=1").empty());
+  const auto pings = watchdog_times(systemd, 6s);
+  const auto rc = stack.daemon().wait(5s);
+  REQUIRE(!pings.empty());
+  INFO("last ping at " << pings.back() << " s of 6 s; daemon log:\n" << stack.daemon().err());
+  // Cycle 10 starts ~2 s after start-up; the pings stop there and never resume.
+  CHECK(pings.back() < 3.0);
+  REQUIRE(rc.has_value());
+  CHECK(*rc == 70);
+  CHECK_THAT(stack.daemon().err(), Catch::Contains("hung"));
+}
+
+TEST_CASE("repeated overruns degrade the estimates and stop the pings", "[integration][systemd]") {
+  StackOptions o;
+  o.domain_id = 55;
+  o.time_scale = 60.0;
+  o.period_s = 12.0;  // 0.2 s wall
+  o.deadline_s = 0.05;
+  o.poll_period_s = 0.05;
+  Stack stack("overrun", o);
+  stack.start_sim();
+  NotifySocket systemd;
+  stack.start_daemon({"--fault-cycle-delay-ms", "80"},
+                     {"NOTIFY_SOCKET=" + systemd.path(), "WATCHDOG_USEC=1000000"});
+  stack.start_echo(20.0);
+  REQUIRE(!systemd.receive(10s, "READY=1").empty());
+  const auto pings = watchdog_times(systemd, 3s);
+  CHECK(pings.size() <= 3);  // the first cycles may ping before the limit of 3 in a row
+  REQUIRE(eventually(
+      [&] {
+        for (const auto& s : stack.samples())
+          if (s["topic"] == "estimator_health" && s["overruns"].get<int>() >= 5) return true;
+        return false;
+      },
+      10s));
+  bool degraded_predict_only = false;
+  for (const auto& s : stack.samples())
+    if (s["topic"] == "virtual_sensor" && s["quality"] == "DEGRADED" &&
+        (s["flags"].get<int>() & 0x21) == 0x21)  // predict_only | deadline_overrun
+      degraded_predict_only = true;
+  CHECK(degraded_predict_only);
+  CHECK(stack.daemon().running());  // degraded, not dead
+  stack.daemon().signal(SIGTERM);
+  CHECK(stack.daemon().wait(5s) == 0);
+}
