@@ -5,6 +5,7 @@
 #include <string>
 
 #include "plant_models/core/ad_model.hpp"
+#include "plant_models/heat_pump/heat_pump.hpp"
 #include "plant_models/zone/zone_rc.hpp"
 
 namespace hvac_twin::plant {
@@ -22,6 +23,14 @@ const std::vector<Entry>& entries() {
         "estimated as a random walk",
         ZoneRc::parameter_info(), [](const ParameterMap&) { return ZoneRc::make_layout(); }},
        [](const ParameterMap& p) { return std::make_unique<AdModel<ZoneRc>>(ZoneRc(p)); }},
+      {{HeatPumpR32::kType,
+        "R32 split heat pump in cooling mode, finite-volume condenser and evaporator with N "
+        "cells each, variable-speed compressor, expansion valve, and the zone it cools",
+        HeatPumpR32::parameter_info(),
+        [](const ParameterMap& p) { return HeatPumpR32(p).layout(); }},
+       [](const ParameterMap& p) {
+         return std::make_unique<AdModel<HeatPumpR32>>(HeatPumpR32(p));
+       }},
   };
   return all;
 }

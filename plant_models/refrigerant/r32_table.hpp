@@ -182,6 +182,13 @@ class PhTable {
   template <class S>
   PhState<S> ph(const S& p, const S& h) const;
 
+  // The formula of one region at (p, h), whatever region h is in: the single-phase tables are
+  // extrapolated past the saturation line (cubically, from their last cell) and the two-phase
+  // lever rule is continued to x < 0 or x > 1. For smoothing across a phase boundary only, a
+  // few kJ/kg beyond it; the status reports p out of range, never h.
+  template <class S>
+  PhState<S> ph_in(const S& p, const S& h, Region region) const;
+
   // Saturation properties at p (kPmin <= p <= kPmax).
   template <class S>
   SatState<S> sat_p(const S& p) const;
@@ -203,6 +210,22 @@ class PhTable {
  private:
   friend const PhTable& ph_table();
   PhTable();  // builds from the EOS (r32_table_build.cpp)
+
+  // The pressure interval holding p (clamped into range, status kOutOfRange if it was not) and
+  // the local coordinate a in [0, 1] of ln p within it.
+  template <class S>
+  struct Located {
+    Status status = Status::kOk;
+    S p{};
+    int i = 0;
+    double de = 1.0;
+    S a{};
+  };
+  template <class S>
+  Located<S> locate(const S& p) const;
+  template <class S>
+  void eval_region(const Located<S>& at, const table_detail::Basis<S>& A, const S& h, const S& hl,
+                   const S& hl_e, const S& hv, const S& hv_e, Region region, PhState<S>& out) const;
 
   Status build_status_ = Status::kNotConverged;
   std::array<double, table_detail::kNp> eta_{};  // ln p at the pressure nodes

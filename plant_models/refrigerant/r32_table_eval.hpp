@@ -42,64 +42,47 @@ void eval_single(const Node* nodes, const double* xi_nodes, int nx, int i, doubl
 }  // namespace table_detail
 
 template <class S>
-PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
-  using std::exp;
+PhTable::Located<S> PhTable::locate(const S& p_in) const {
   using std::log;
-  using table_detail::Basis;
-  using table_detail::curve_at;
-  PhState<S> out;
-  if (build_status_ != Status::kOk) {
-    out.status = build_status_;
-    return out;
-  }
-  S p = p_in;
-  const double pv = value_of(p);
+  Located<S> at;
+  at.status = build_status_;
+  at.p = p_in;
+  const double pv = value_of(p_in);
   if (!(pv >= kPmin && pv <= kPmax)) {
-    out.status = Status::kOutOfRange;
-    p = S(std::isnan(pv) ? kPmin : std::clamp(pv, kPmin, kPmax));
+    if (at.status == Status::kOk) at.status = Status::kOutOfRange;
+    at.p = S(std::isnan(pv) ? kPmin : std::clamp(pv, kPmin, kPmax));
   }
-  const S eta = log(p);
-  const int i = table_detail::find_interval(eta_.data(), table_detail::kNp, value_of(eta));
-  const auto k = static_cast<std::size_t>(i);
-  const double de = eta_[k + 1] - eta_[k];
-  const Basis<S> A((eta - eta_[k]) / de);
-  S hl, hl_e, hv, hv_e;
-  curve_at(h_l_, i, de, A, hl, hl_e);
-  curve_at(h_v_, i, de, A, hv, hv_e);
+  const S eta = log(at.p);
+  at.i = table_detail::find_interval(eta_.data(), table_detail::kNp, value_of(eta));
+  const auto k = static_cast<std::size_t>(at.i);
+  at.de = eta_[k + 1] - eta_[k];
+  at.a = (eta - eta_[k]) / at.de;
+  return at;
+}
 
-  S h = h_in;
-  if (!std::isfinite(value_of(h))) {
-    out.status = Status::kOutOfRange;
-    h = hl;
-  }
-  const double hval = value_of(h);
-  if (hval < value_of(hl)) {
+template <class S>
+void PhTable::eval_region(const Located<S>& at, const table_detail::Basis<S>& A, const S& h,
+                          const S& hl, const S& hl_e, const S& hv, const S& hv_e, Region region,
+                          PhState<S>& out) const {
+  using std::exp;
+  using table_detail::curve_at;
+  out.region = region;
+  if (region == Region::kLiquid) {
     S lo, lo_e;
-    curve_at(h_min_, i, de, A, lo, lo_e);
-    if (hval < value_of(lo)) {
-      out.status = Status::kOutOfRange;
-      h = lo;
-    }
-    out.region = Region::kLiquid;
-    table_detail::eval_single(liquid_.data(), xi_l_.data(), table_detail::kNxL, i, de, A, p, h, lo,
-                              lo_e, hl, hl_e, out);
-  } else if (hval > value_of(hv)) {
+    curve_at(h_min_, at.i, at.de, A, lo, lo_e);
+    table_detail::eval_single(liquid_.data(), xi_l_.data(), table_detail::kNxL, at.i, at.de, A,
+                              at.p, h, lo, lo_e, hl, hl_e, out);
+  } else if (region == Region::kVapour) {
     S hi, hi_e;
-    curve_at(h_max_, i, de, A, hi, hi_e);
-    if (hval > value_of(hi)) {
-      out.status = Status::kOutOfRange;
-      h = hi;
-    }
-    out.region = Region::kVapour;
-    table_detail::eval_single(vapour_.data(), xi_v_.data(), table_detail::kNxV, i, de, A, p, h, hv,
-                              hv_e, hi, hi_e, out);
+    curve_at(h_max_, at.i, at.de, A, hi, hi_e);
+    table_detail::eval_single(vapour_.data(), xi_v_.data(), table_detail::kNxV, at.i, at.de, A,
+                              at.p, h, hv, hv_e, hi, hi_e, out);
   } else {
     // Two phase: T = T_sat(p); v = v_l + x (v_v - v_l) with x = (h - h_l)/(h_v - h_l).
-    out.region = Region::kTwoPhase;
     S Ts, Ts_e, Ll, Ll_e, Lv, Lv_e;
-    curve_at(t_sat_, i, de, A, Ts, Ts_e);
-    curve_at(ln_rho_l_, i, de, A, Ll, Ll_e);
-    curve_at(ln_rho_v_, i, de, A, Lv, Lv_e);
+    curve_at(t_sat_, at.i, at.de, A, Ts, Ts_e);
+    curve_at(ln_rho_l_, at.i, at.de, A, Ll, Ll_e);
+    curve_at(ln_rho_v_, at.i, at.de, A, Lv, Lv_e);
     const S vl = exp(-Ll);
     const S vv = exp(-Lv);
     const S dh = hv - hl;
@@ -108,45 +91,90 @@ PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
     const S v = vl + x * (vv - vl);
     const S v_e = -vl * Ll_e + x_e * (vv - vl) + x * (vl * Ll_e - vv * Lv_e);
     out.rho = 1.0 / v;
-    out.drho_dp_h = -out.rho * out.rho * v_e / p;
+    out.drho_dp_h = -out.rho * out.rho * v_e / at.p;
     out.drho_dh_p = -out.rho * out.rho * (vv - vl) / dh;
     out.T = Ts;
-    out.dT_dp_h = Ts_e / p;
+    out.dT_dp_h = Ts_e / at.p;
     out.dT_dh_p = S(0.0);
   }
   out.quality = (h - hl) / (hv - hl);
+}
+
+template <class S>
+PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
+  using table_detail::curve_at;
+  PhState<S> out;
+  const Located<S> at = locate(p_in);
+  out.status = at.status;
+  if (build_status_ != Status::kOk) return out;
+  const table_detail::Basis<S> A(at.a);
+  S hl, hl_e, hv, hv_e;
+  curve_at(h_l_, at.i, at.de, A, hl, hl_e);
+  curve_at(h_v_, at.i, at.de, A, hv, hv_e);
+
+  S h = h_in;
+  if (!std::isfinite(value_of(h))) {
+    out.status = Status::kOutOfRange;
+    h = hl;
+  }
+  const double hval = value_of(h);
+  Region region = Region::kTwoPhase;
+  if (hval < value_of(hl)) {
+    region = Region::kLiquid;
+    S lo, lo_e;
+    curve_at(h_min_, at.i, at.de, A, lo, lo_e);
+    if (hval < value_of(lo)) {
+      out.status = Status::kOutOfRange;
+      h = lo;
+    }
+  } else if (hval > value_of(hv)) {
+    region = Region::kVapour;
+    S hi, hi_e;
+    curve_at(h_max_, at.i, at.de, A, hi, hi_e);
+    if (hval > value_of(hi)) {
+      out.status = Status::kOutOfRange;
+      h = hi;
+    }
+  }
+  eval_region(at, A, h, hl, hl_e, hv, hv_e, region, out);
+  return out;
+}
+
+template <class S>
+PhState<S> PhTable::ph_in(const S& p_in, const S& h, Region region) const {
+  using table_detail::curve_at;
+  PhState<S> out;
+  const Located<S> at = locate(p_in);
+  out.status = at.status;
+  if (build_status_ != Status::kOk) return out;
+  if (!std::isfinite(value_of(h))) {
+    out.status = Status::kOutOfRange;
+    return out;
+  }
+  const table_detail::Basis<S> A(at.a);
+  S hl, hl_e, hv, hv_e;
+  curve_at(h_l_, at.i, at.de, A, hl, hl_e);
+  curve_at(h_v_, at.i, at.de, A, hv, hv_e);
+  eval_region(at, A, h, hl, hl_e, hv, hv_e, region, out);
   return out;
 }
 
 template <class S>
 SatState<S> PhTable::sat_p(const S& p_in) const {
   using std::exp;
-  using std::log;
-  using table_detail::Basis;
   using table_detail::curve_at;
   SatState<S> out;
-  if (build_status_ != Status::kOk) {
-    out.status = build_status_;
-    return out;
-  }
-  S p = p_in;
-  const double pv = value_of(p);
-  if (!(pv >= kPmin && pv <= kPmax)) {
-    out.status = Status::kOutOfRange;
-    p = S(std::isnan(pv) ? kPmin : std::clamp(pv, kPmin, kPmax));
-  }
-  const S eta = log(p);
-  const int i = table_detail::find_interval(eta_.data(), table_detail::kNp, value_of(eta));
-  const auto k = static_cast<std::size_t>(i);
-  const double de = eta_[k + 1] - eta_[k];
-  const Basis<S> A((eta - eta_[k]) / de);
+  const Located<S> at = locate(p_in);
+  out.status = at.status;
+  if (build_status_ != Status::kOk) return out;
+  const table_detail::Basis<S> A(at.a);
   S T_e, hl_e, hv_e, Ll, Ll_e, Lv, Lv_e;
-  curve_at(t_sat_, i, de, A, out.T, T_e);
-  curve_at(h_l_, i, de, A, out.h_l, hl_e);
-  curve_at(h_v_, i, de, A, out.h_v, hv_e);
-  curve_at(ln_rho_l_, i, de, A, Ll, Ll_e);
-  curve_at(ln_rho_v_, i, de, A, Lv, Lv_e);
-  const S inv_p = 1.0 / p;
+  curve_at(t_sat_, at.i, at.de, A, out.T, T_e);
+  curve_at(h_l_, at.i, at.de, A, out.h_l, hl_e);
+  curve_at(h_v_, at.i, at.de, A, out.h_v, hv_e);
+  curve_at(ln_rho_l_, at.i, at.de, A, Ll, Ll_e);
+  curve_at(ln_rho_v_, at.i, at.de, A, Lv, Lv_e);
+  const S inv_p = 1.0 / at.p;
   out.rho_l = exp(Ll);
   out.rho_v = exp(Lv);
   out.dT_dp = T_e * inv_p;

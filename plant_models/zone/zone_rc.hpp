@@ -56,20 +56,23 @@ class ZoneRc {
   [[nodiscard]] ModelLayout layout() const { return make_layout(); }
   [[nodiscard]] const Params& params() const { return p_; }
 
+  // The zone's energy balance, shared with models that contain the zone (the heat pump passes
+  // a heat flow that depends on its own state, hence the separate scalar type Q).
+  template <class S, class Q>
+  static void balance(const Params& p, const S& t_air, const S& t_mass, const S& q_int,
+                      const Q& q_hp, double t_out, S& dt_air, S& dt_mass) {
+    const S q_am = p.ua_air_mass * (t_mass - t_air);  // W, mass -> air
+    dt_air = (q_am + p.ua_air_out * (t_out - t_air) + p.hp_fraction_air * q_hp +
+              p.gain_fraction_air * q_int) /
+             p.c_air;
+    dt_mass = (-q_am + p.ua_mass_out * (t_out - t_mass) + (1.0 - p.hp_fraction_air) * q_hp +
+               (1.0 - p.gain_fraction_air) * q_int) /
+              p.c_mass;
+  }
+
   template <class S>
   int rhs(std::span<const S> x, std::span<const double> u, std::span<S> xdot) const {
-    const S& t_air = x[kTAir];
-    const S& t_mass = x[kTMass];
-    const S& q_int = x[kQInt];
-    const double q_hp = u[kQHp];
-    const double t_out = u[kTOut];
-    const S q_am = p_.ua_air_mass * (t_mass - t_air);  // W, mass -> air
-    xdot[kTAir] = (q_am + p_.ua_air_out * (t_out - t_air) + p_.hp_fraction_air * q_hp +
-                   p_.gain_fraction_air * q_int) /
-                  p_.c_air;
-    xdot[kTMass] = (-q_am + p_.ua_mass_out * (t_out - t_mass) + (1.0 - p_.hp_fraction_air) * q_hp +
-                    (1.0 - p_.gain_fraction_air) * q_int) /
-                   p_.c_mass;
+    balance(p_, x[kTAir], x[kTMass], x[kQInt], u[kQHp], u[kTOut], xdot[kTAir], xdot[kTMass]);
     xdot[kQInt] = S(0.0);
     return kModelOk;
   }

@@ -1,0 +1,279 @@
+#include "plant_models/heat_pump/heat_pump.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace hvac_twin::plant {
+namespace {
+
+constexpr double kPressureFloor = 0.055e6;  // Pa, inside the property table with a margin
+constexpr double kPressureCeiling = 5.55e6;
+
+// Saturation pressure at temperature t [K], by Newton's method on the table's T_sat(p).
+double saturation_pressure(double t) {
+  double p = 1e6;
+  for (int i = 0; i < 50; ++i) {
+    const auto s = r32::sat_props(p);
+    const double step = (s.T - t) / s.dT_dp;
+    p = std::clamp(p - step, kPressureFloor, kPressureCeiling);
+    if (std::abs(step) < 1e-9 * p) break;
+  }
+  return p;
+}
+
+std::string indexed(const char* base, std::size_t i) {
+  return base + std::to_string(i);
+}
+
+}  // namespace
+
+HeatPumpR32::HeatPumpR32(const hp::Params& params)
+    : p_(params),
+      L_(static_cast<std::size_t>(params.cells), params.augment_gains, params.augment_leak,
+         params.augment_fouling),
+      n_(static_cast<std::size_t>(params.cells)) {
+  if (params.cells < 2 || n_ > kMaxCells)
+    throw std::invalid_argument("heat pump: cells must be in [2, " + std::to_string(kMaxCells) +
+                                "]");
+  if (r32::ph_table().build_status() != r32::Status::kOk)
+    throw std::runtime_error("heat pump: the R32 property table failed to build");
+  cache_key_.assign(2 * (n_ + 1) + 3, 0.0);
+}
+
+int HeatPumpR32::solve_pressures(const SideInputs<double>& in, double speed, double& p_cond,
+                                 double& p_evap, std::array<double, 4>& jac) const {
+  const std::size_t N = n_;
+  // The cache: inputs of the last solve.
+  bool same = cache_valid_;
+  const auto key = [&](std::size_t i, double v) {
+    if (cache_key_[i] != v) same = false;
+    cache_key_[i] = v;
+  };
+  key(0, in.charge);
+  key(1, in.m_cond);
+  key(2, speed);
+  for (std::size_t k = 0; k <= N; ++k) {
+    key(3 + k, in.h_cond[k]);
+    key(4 + N + k, in.h_evap[k]);
+  }
+  if (same) {
+    p_cond = cache_pc_;
+    p_evap = cache_pe_;
+    jac = cache_jac_;
+    return kModelOk;
+  }
+
+  using D = Dual<2>;
+  SideInputs<D> dv;
+  dv.charge = in.charge;
+  dv.m_cond = in.m_cond;
+  for (std::size_t k = 0; k <= N; ++k) {
+    dv.h_cond[k] = in.h_cond[k];
+    dv.h_evap[k] = in.h_evap[k];
+  }
+  Eval<D> e;
+  const auto newton = [&](double pc, double pe) {
+    for (int it = 0; it < 40; ++it) {
+      D r1, r2;
+      if (fill_sides(D(pc, {1.0, 0.0}), D(pe, {0.0, 1.0}), dv, speed, e, r1, r2) != kModelOk)
+        return false;
+      const std::array<double, 4> J{r1.d[0], r1.d[1], r2.d[0], r2.d[1]};
+      const double det = J[0] * J[3] - J[1] * J[2];
+      if (!std::isfinite(det) || det == 0.0) return false;
+      double dpc = -(J[3] * r1.v - J[1] * r2.v) / det;
+      double dpe = -(J[0] * r2.v - J[2] * r1.v) / det;
+      const double limit = std::min({1.0, 0.25 * pc / std::abs(dpc), 0.25 * pe / std::abs(dpe)});
+      dpc *= limit;
+      dpe *= limit;
+      pc = std::clamp(pc + dpc, kPressureFloor, kPressureCeiling);
+      pe = std::clamp(pe + dpe, kPressureFloor, kPressureCeiling);
+      if (!std::isfinite(pc) || !std::isfinite(pe)) return false;
+      // Quadratic convergence: iterate to round-off (a relative step of 1e-13), so that the
+      // pressures are smooth functions of the state that finite differences can check. A
+      // solve that stalls just above that is accepted at 1e-10.
+      const double step = std::max(std::abs(dpc) / pc, std::abs(dpe) / pe);
+      if (limit == 1.0 && (step <= 1e-13 || (it >= 8 && step <= 1e-10))) {
+        p_cond = pc;
+        p_evap = pe;
+        jac = J;
+        return true;
+      }
+    }
+    return false;
+  };
+  const bool solved = (cache_valid_ && newton(cache_pc_, cache_pe_)) || newton(2.5e6, 0.9e6) ||
+                      newton(1.5e6, 0.6e6) || newton(4.0e6, 1.5e6);
+  cache_valid_ = solved;
+  if (!solved) return kModelRecoverable;
+  cache_pc_ = p_cond;
+  cache_pe_ = p_evap;
+  cache_jac_ = jac;
+  return kModelOk;
+}
+
+std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
+                                               double charge) const {
+  const std::size_t N = n_;
+  const double pc = saturation_pressure(t_out_c + kKelvin + 12.0);
+  const double pe = saturation_pressure(t_zone_c + kKelvin - 17.0);
+  const auto sat_c = r32::sat_props(pc);
+  const auto sat_e = r32::sat_props(pe);
+  const double h_dis = sat_c.h_v + 50e3;
+  const double h_sub = sat_c.h_l - 9.5e3;  // about 5 K of subcooling
+  const double h_suc = sat_e.h_v + 5e3;    // about 4 K of superheat
+  // Condenser profile: desuperheating and condensing over the first 1 - phi of the cells, then
+  // subcooled liquid; phi is chosen so that the two sides hold `charge`.
+  SideInputs<double> in;
+  const auto profile = [&](double phi) {
+    for (std::size_t k = 0; k < N; ++k) {
+      const double s = (static_cast<double>(k) + 0.5) / static_cast<double>(N);
+      in.h_cond[k] = s < 1.0 - phi ? h_dis + (sat_c.h_l - h_dis) * s / (1.0 - phi)
+                                   : sat_c.h_l - (sat_c.h_l - h_sub) * (s - 1.0 + phi) / phi;
+      in.h_evap[k] = h_sub + (h_suc - h_sub) * s;
+    }
+    in.h_cond[N] = h_sub;
+    in.h_evap[N] = h_suc;
+  };
+  Eval<double> e;
+  double mass_cond = 0.0, mass_evap = 0.0;  // residuals with zero masses are the masses
+  const auto masses = [&](double phi) {
+    profile(phi);
+    if (fill_sides(pc, pe, in, p_.speed_rated, e, mass_cond, mass_evap) != kModelOk)
+      throw std::runtime_error("heat pump: no initial state at these temperatures");
+    return mass_cond + mass_evap;
+  };
+  double lo = 0.02, hi = 0.9;
+  if (masses(lo) < charge && masses(hi) > charge) {
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (masses(mid) < charge ? lo : hi) = mid;
+    }
+  }
+  masses(0.5 * (lo + hi));
+
+  std::vector<double> x(L_.size, 0.0);
+  x[L_.charge] = mass_cond + mass_evap;
+  x[L_.m_cond] = mass_cond;
+  for (std::size_t k = 0; k < N; ++k) {
+    x[L_.h_cond[k]] = 1e-3 * in.h_cond[k];
+    x[L_.h_evap[k]] = 1e-3 * in.h_evap[k];
+    x[L_.tw_cond[k]] = 0.5 * (e.cond[k].T - kKelvin + t_out_c);
+    x[L_.tw_evap[k]] = 0.5 * (e.evap[k].T - kKelvin + t_zone_c);
+  }
+  x[L_.h_ll] = 1e-3 * h_sub;
+  x[L_.h_sl] = 1e-3 * h_suc;
+  x[L_.t_air] = t_zone_c;
+  x[L_.t_mass] = t_zone_c;
+  if (L_.q_int != hp::kNone) x[L_.q_int] = p_.internal_gains;
+  if (L_.leak != hp::kNone) x[L_.leak] = p_.leak_rate;
+  if (L_.fouling != hp::kNone) x[L_.fouling] = p_.fouling;
+  return x;
+}
+
+ModelLayout HeatPumpR32::make_layout() const {
+  const std::size_t N = n_;
+  const std::vector<double> x0 = initial_state(35.0, 27.0, p_.nameplate_charge);
+  ModelLayout l;
+  l.states.resize(L_.size);
+  const auto set = [&](std::size_t i, std::string name, const char* unit, double lo, double hi,
+                       double std0, double q, double abs_tol, bool augmented, std::string desc) {
+    l.states[i] = StateInfo{std::move(name), unit,           lo, hi, x0[i], std0, q, abs_tol,
+                            augmented,       std::move(desc)};
+  };
+  // Enthalpy bounds: the property table's range (liquid at -73 degC to vapour at 160 degC).
+  const double h_lo = 60.0, h_hi = 720.0;
+  set(L_.charge, "charge", "kg", 0.0, 2.0 * p_.nameplate_charge, 0.05, 1e-6, 1e-9, false,
+      "total refrigerant mass in the circuit");
+  set(L_.m_cond, "M_cond", "kg", 0.0, 2.0 * p_.nameplate_charge, 0.05, 1e-4, 1e-9, false,
+      "refrigerant mass on the high side: discharge line, condenser, liquid line");
+  for (std::size_t k = 0; k < N; ++k) {
+    set(L_.h_cond[k], indexed("h_cond_", k), "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-5, false,
+        "condenser cell enthalpy");
+    set(L_.tw_cond[k], indexed("Tw_cond_", k), "degC", -40.0, 150.0, 2.0, 0.01, 1e-6, false,
+        "condenser wall temperature");
+    set(L_.h_evap[k], indexed("h_evap_", k), "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-5, false,
+        "evaporator cell enthalpy");
+    set(L_.tw_evap[k], indexed("Tw_evap_", k), "degC", -40.0, 150.0, 2.0, 0.01, 1e-6, false,
+        "evaporator wall temperature");
+  }
+  set(L_.h_ll, "h_liquid_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-5, false,
+      "liquid-line enthalpy: the expansion-valve inlet");
+  set(L_.h_sl, "h_suction_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-5, false,
+      "suction-line enthalpy: the compressor inlet");
+  set(L_.t_air, "T_air", "degC", -40.0, 70.0, 1.0, 1e-3, 1e-6, false, "zone air temperature");
+  set(L_.t_mass, "T_mass", "degC", -40.0, 70.0, 3.0, 5e-4, 1e-6, false,
+      "building-mass temperature");
+  if (L_.q_int != hp::kNone)
+    set(L_.q_int, "Q_int", "W", -2000.0, 20000.0, 300.0, 1.0, 1e-3, true,
+        "internal heat gains (random walk)");
+  if (L_.leak != hp::kNone)
+    set(L_.leak, "leak_rate", "g/h", 0.0, 1000.0, 2.0, 0.01, 1e-6, true,
+        "refrigerant leak rate (random walk)");
+  if (L_.fouling != hp::kNone)
+    set(L_.fouling, "fouling", "1", 0.2, 1.5, 0.05, 1e-5, 1e-9, true,
+        "outdoor-coil air-side UA factor, 1 = clean (random walk)");
+
+  l.inputs.resize(hp::kNumInputs);
+  l.inputs[hp::kCompressorSpeed] = {"compressor_speed", "Hz", 0.0, 150.0, kRequired,
+                                    "compressor speed"};
+  l.inputs[hp::kValveOpening] = {"valve_opening",
+                                 "1",
+                                 0.0,
+                                 1.0,
+                                 kRequired,
+                                 "expansion-valve opening, fraction of full stroke"};
+  l.inputs[hp::kIndoorFan] = {"indoor_fan", "1", 0.0,
+                              1.5,          1.0, "indoor fan speed, fraction of rated air flow"};
+  l.inputs[hp::kOutdoorFan] = {"outdoor_fan", "1", 0.0,
+                               1.5,           1.0, "outdoor fan speed, fraction of rated air flow"};
+  l.inputs[hp::kOutdoorTemperature] = {"outdoor_temperature",
+                                       "degC",
+                                       -30.0,
+                                       55.0,
+                                       kRequired,
+                                       "outdoor air temperature (condenser air inlet)"};
+
+  l.outputs.resize(hp::kNumOutputs);
+  const auto out = [&](hp::Output o, const char* name, const char* unit, double lo, double hi,
+                       const char* desc) {
+    l.outputs[o] = SignalInfo{name, unit, lo, hi, kRequired, desc};
+  };
+  using namespace hp;
+  out(kSuctionPressure, "suction_pressure", "Pa", 0.0, 6e6, "compressor suction pressure");
+  out(kDischargePressure, "discharge_pressure", "Pa", 0.0, 6e6, "compressor discharge pressure");
+  out(kCondWallTempIn, "cond_wall_temperature_in", "degC", -40, 150, "condenser inlet wall");
+  out(kCondWallTempOut, "cond_wall_temperature_out", "degC", -40, 150, "condenser outlet wall");
+  out(kEvapWallTempIn, "evap_wall_temperature_in", "degC", -40, 150, "evaporator inlet wall");
+  out(kEvapWallTempOut, "evap_wall_temperature_out", "degC", -40, 150, "evaporator outlet wall");
+  out(kZoneAirTemperature, "zone_air_temperature", "degC", -40, 70, "zone air temperature");
+  out(kSupplyAirTemperature, "supply_air_temperature", "degC", -40, 70,
+      "air leaving the indoor coil");
+  out(kCompressorPower, "compressor_power", "W", 0, 1e5, "compressor electric power");
+  out(kCondenserOutletPressure, "condenser_outlet_pressure", "Pa", 0, 6e6,
+      "condenser outlet (liquid line) pressure");
+  out(kValveInletEnthalpy, "valve_inlet_enthalpy", "kJ/kg", 0, 800,
+      "specific enthalpy at the expansion-valve inlet");
+  out(kCondenserHeatFlow, "condenser_heat_flow", "W", -1e5, 1e5,
+      "heat from the refrigerant to the condenser wall");
+  out(kEvaporatorHeatFlow, "evaporator_heat_flow", "W", -1e5, 1e5,
+      "heat from the evaporator wall to the refrigerant");
+  out(kCoolingCapacity, "cooling_capacity", "W", -1e5, 1e5,
+      "heat taken from the indoor air (sensible)");
+  out(kRefrigerantMassFlow, "refrigerant_mass_flow", "kg/s", 0, 1, "compressor mass flow");
+  out(kDischargeTemperature, "discharge_temperature", "degC", -40, 200,
+      "compressor discharge temperature");
+  out(kSuperheat, "superheat", "K", -50, 100, "superheat at the compressor inlet");
+  out(kSubcooling, "subcooling", "K", -50, 100, "subcooling at the expansion-valve inlet");
+  out(kCop, "cop", "1", -10, 20, "coefficient of performance: cooling capacity / power");
+  out(kCharge, "charge", "kg", 0, 5, "refrigerant charge");
+  out(kLeakRate, "leak_rate", "g/h", -1e4, 1e4, "refrigerant leak rate");
+  out(kMassTemperature, "mass_temperature", "degC", -40, 70, "building-mass temperature");
+  out(kInternalGains, "internal_gains", "W", -2000, 20000, "internal heat gains");
+  out(kOutdoorCoilFouling, "outdoor_coil_fouling", "1", 0, 2,
+      "outdoor-coil air-side UA factor (1 = clean)");
+  return l;
+}
+
+}  // namespace hvac_twin::plant

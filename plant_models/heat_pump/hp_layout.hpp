@@ -1,0 +1,103 @@
+// State, input and output layout of the R32 heat pump, declared once. The number of cells per
+// heat exchanger and the augmented unknowns are structural parameters, so the layout is computed
+// at construction; everything else indexes through these named slices.
+//
+// State (units in brackets; enthalpies in kJ/kg keep the covariance well scaled):
+//   charge            [kg]     total refrigerant mass (changes only by a leak)
+//   M_cond            [kg]     mass in the high side: discharge line, condenser, liquid line
+//   h_cond_i          [kJ/kg]  condenser cell enthalpies, i = 0..N-1 in flow direction
+//   h_liquid_line     [kJ/kg]  liquid line (adiabatic cell): the expansion-valve inlet
+//   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
+//   h_evap_i          [kJ/kg]  evaporator cell enthalpies
+//   h_suction_line    [kJ/kg]  suction line (adiabatic cell): the compressor inlet
+//   Tw_evap_i         [degC]   evaporator wall temperatures
+//   T_air, T_mass     [degC]   zone air and building mass (as zone_rc)
+//   Q_int             [W]      internal gains            (augmented, optional)
+//   leak_rate         [g/h]    refrigerant leak           (augmented, optional)
+//   fouling           [1]      outdoor-coil air-side UA factor (augmented, optional)
+// The low-side mass is charge - M_cond; the two pressures are algebraic (see heat_pump.hpp).
+#pragma once
+
+#include <cstddef>
+
+namespace hvac_twin::plant::hp {
+
+struct Slice {
+  std::size_t begin = 0;
+  std::size_t size = 0;
+  [[nodiscard]] std::size_t operator[](std::size_t i) const { return begin + i; }
+  [[nodiscard]] std::size_t last() const { return begin + size - 1; }
+};
+
+inline constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+
+struct Layout {
+  std::size_t cells = 0;
+  std::size_t charge = 0, m_cond = 1;
+  Slice h_cond, tw_cond, h_evap, tw_evap;
+  std::size_t h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
+  std::size_t q_int = kNone, leak = kNone, fouling = kNone;  // kNone: not augmented
+  std::size_t size = 0;
+
+  Layout(std::size_t n, bool gains, bool leak_rate, bool fouling_factor) : cells(n) {
+    std::size_t at = 2;
+    auto take = [&at](std::size_t count) {
+      const Slice s{at, count};
+      at += count;
+      return s;
+    };
+    h_cond = take(n);
+    h_ll = at++;
+    tw_cond = take(n);
+    h_evap = take(n);
+    h_sl = at++;
+    tw_evap = take(n);
+    t_air = at++;
+    t_mass = at++;
+    if (gains) q_int = at++;
+    if (leak_rate) leak = at++;
+    if (fouling_factor) fouling = at++;
+    size = at;
+  }
+};
+
+// Inputs, all read from the unit's points.
+enum Input : std::size_t {
+  kCompressorSpeed,     // Hz
+  kValveOpening,        // 1, 0..1 of the expansion valve's full stroke
+  kIndoorFan,           // 1, fraction of the rated indoor air flow
+  kOutdoorFan,          // 1, fraction of the rated outdoor air flow
+  kOutdoorTemperature,  // degC
+  kNumInputs
+};
+
+// Outputs: measurable points first, then virtual sensors.
+enum Output : std::size_t {
+  kSuctionPressure,          // Pa, evaporator outlet = compressor inlet
+  kDischargePressure,        // Pa, compressor outlet = condenser inlet
+  kCondWallTempIn,           // degC
+  kCondWallTempOut,          // degC
+  kEvapWallTempIn,           // degC
+  kEvapWallTempOut,          // degC
+  kZoneAirTemperature,       // degC
+  kSupplyAirTemperature,     // degC, indoor coil outlet air
+  kCompressorPower,          // W, electric
+  kCondenserOutletPressure,  // Pa
+  kValveInletEnthalpy,       // kJ/kg
+  kCondenserHeatFlow,        // W, refrigerant to condenser wall
+  kEvaporatorHeatFlow,       // W, evaporator wall to refrigerant
+  kCoolingCapacity,          // W, heat taken from the indoor air
+  kRefrigerantMassFlow,      // kg/s, through the compressor
+  kDischargeTemperature,     // degC
+  kSuperheat,                // K, at the compressor inlet
+  kSubcooling,               // K, at the expansion-valve inlet
+  kCop,                      // 1, cooling capacity / electric power
+  kCharge,                   // kg
+  kLeakRate,                 // g/h
+  kMassTemperature,          // degC
+  kInternalGains,            // W
+  kOutdoorCoilFouling,       // 1
+  kNumOutputs
+};
+
+}  // namespace hvac_twin::plant::hp

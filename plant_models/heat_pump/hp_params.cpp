@@ -1,0 +1,191 @@
+#include "plant_models/heat_pump/hp_params.hpp"
+
+#include <string>
+
+namespace hvac_twin::plant::hp {
+namespace {
+
+struct Entry {
+  ParameterInfo info;
+  double& (*ref)(Params&);
+};
+
+#define HP_REF(expr) [](Params& p) -> double& { return p.expr; }
+
+const std::vector<Entry>& table() {
+  const Params d{};
+  static const std::vector<Entry> entries{
+      {{"comp_displacement", "m3", d.displacement, 1e-6, 1e-4, false,
+        "compressor displacement per revolution"},
+       HP_REF(displacement)},
+      {{"comp_speed_rated", "Hz", d.speed_rated, 10.0, 150.0, false,
+        "rated compressor speed (peak isentropic efficiency)"},
+       HP_REF(speed_rated)},
+      {{"comp_eta_v0", "1", d.eta_v0, 0.5, 1.0, false,
+        "volumetric efficiency extrapolated to pressure ratio 1"},
+       HP_REF(eta_v0)},
+      {{"comp_eta_v_slope", "1", d.eta_v_slope, 0.0, 0.2, false,
+        "loss of volumetric efficiency per unit of pressure ratio (clearance re-expansion)"},
+       HP_REF(eta_v_slope)},
+      {{"comp_eta_is_peak", "1", d.eta_is_peak, 0.3, 0.95, false, "peak isentropic efficiency"},
+       HP_REF(eta_is_peak)},
+      {{"comp_pi_optimum", "1", d.pi_optimum, 1.5, 6.0, false,
+        "pressure ratio of the peak isentropic efficiency"},
+       HP_REF(pi_optimum)},
+      {{"comp_eta_is_pi_curvature", "1", d.eta_is_pi_curv, 0.0, 0.2, false,
+        "isentropic efficiency loss per (pressure ratio - optimum)^2"},
+       HP_REF(eta_is_pi_curv)},
+      {{"comp_eta_is_speed_curvature", "1", d.eta_is_speed_curv, 0.0, 1.0, false,
+        "isentropic efficiency loss per ((speed - rated) / rated)^2"},
+       HP_REF(eta_is_speed_curv)},
+      {{"comp_kappa", "1", d.kappa, 1.05, 1.4, false,
+        "polytropic exponent of the isentropic work (1.19 fits the R32 EOS within 1 %)"},
+       HP_REF(kappa)},
+      {{"motor_efficiency", "1", d.motor_efficiency, 0.5, 1.0, false,
+        "inverter and motor efficiency, electric to shaft"},
+       HP_REF(motor_efficiency)},
+      {{"valve_coefficient", "m2", d.valve_coefficient, 1e-8, 1e-4, false,
+        "expansion valve: discharge coefficient times full-open area"},
+       HP_REF(valve_coefficient)},
+      {{"cond_volume", "m3", d.cond.volume, 1e-5, 0.05, false,
+        "condenser refrigerant volume, discharge line included"},
+       HP_REF(cond.volume)},
+      {{"cond_inner_area", "m2", d.cond.inner_area, 0.01, 50.0, false,
+        "condenser refrigerant-side area"},
+       HP_REF(cond.inner_area)},
+      {{"cond_wall_capacity", "J/K", d.cond.wall_capacity, 10.0, 1e6, false,
+        "condenser tubes and fins heat capacity"},
+       HP_REF(cond.wall_capacity)},
+      {{"cond_ua_air", "W/K", d.cond.ua_air, 1.0, 1e5, false,
+        "condenser air-side conductance at rated air flow"},
+       HP_REF(cond.ua_air)},
+      {{"cond_air_flow", "kg/s", d.cond.air_flow, 0.01, 20.0, false, "outdoor fan rated air flow"},
+       HP_REF(cond.air_flow)},
+      {{"cond_dp_nominal", "Pa", d.cond.dp_nominal, 0.0, 1e6, false,
+        "condenser refrigerant pressure drop at the nominal mass flow"},
+       HP_REF(cond.dp_nominal)},
+      {{"cond_htc_two_phase", "W/(m2 K)", d.cond.htc_two_phase, 10.0, 1e5, false,
+        "condensing heat transfer coefficient"},
+       HP_REF(cond.htc_two_phase)},
+      {{"evap_volume", "m3", d.evap.volume, 1e-5, 0.05, false, "evaporator refrigerant volume"},
+       HP_REF(evap.volume)},
+      {{"evap_inner_area", "m2", d.evap.inner_area, 0.01, 50.0, false,
+        "evaporator refrigerant-side area"},
+       HP_REF(evap.inner_area)},
+      {{"evap_wall_capacity", "J/K", d.evap.wall_capacity, 10.0, 1e6, false,
+        "evaporator tubes and fins heat capacity"},
+       HP_REF(evap.wall_capacity)},
+      {{"evap_ua_air", "W/K", d.evap.ua_air, 1.0, 1e5, false,
+        "evaporator air-side conductance at rated air flow"},
+       HP_REF(evap.ua_air)},
+      {{"evap_air_flow", "kg/s", d.evap.air_flow, 0.01, 20.0, false, "indoor fan rated air flow"},
+       HP_REF(evap.air_flow)},
+      {{"evap_dp_nominal", "Pa", d.evap.dp_nominal, 0.0, 1e6, false,
+        "evaporator refrigerant pressure drop at the nominal mass flow"},
+       HP_REF(evap.dp_nominal)},
+      {{"evap_htc_two_phase", "W/(m2 K)", d.evap.htc_two_phase, 10.0, 1e5, false,
+        "boiling heat transfer coefficient"},
+       HP_REF(evap.htc_two_phase)},
+      {{"htc_liquid", "W/(m2 K)", d.htc_liquid, 10.0, 1e5, false,
+        "single-phase liquid heat transfer coefficient"},
+       HP_REF(htc_liquid)},
+      {{"htc_vapour", "W/(m2 K)", d.htc_vapour, 10.0, 1e5, false,
+        "single-phase vapour heat transfer coefficient"},
+       HP_REF(htc_vapour)},
+      {{"quality_blend", "1", d.quality_blend, 0.005, 0.3, false,
+        "width in vapour quality of the heat-transfer blend at x = 0 and x = 1"},
+       HP_REF(quality_blend)},
+      {{"nominal_mass_flow", "kg/s", d.nominal_mass_flow, 1e-3, 1.0, false,
+        "refrigerant mass flow at which the nominal pressure drops apply"},
+       HP_REF(nominal_mass_flow)},
+      {{"liquid_line_volume", "m3", d.liquid_line_volume, 1e-6, 0.01, false,
+        "liquid line volume, condenser outlet to expansion valve"},
+       HP_REF(liquid_line_volume)},
+      {{"suction_line_volume", "m3", d.suction_line_volume, 1e-6, 0.01, false,
+        "suction line volume, evaporator outlet to compressor"},
+       HP_REF(suction_line_volume)},
+      {{"fan_ua_exponent", "1", d.fan_ua_exponent, 0.3, 1.0, false,
+        "exponent of the air flow in the air-side conductance"},
+       HP_REF(fan_ua_exponent)},
+      {{"smoothing_width", "J/kg", d.smoothing_width, 10.0, 5000.0, false,
+        "enthalpy width of the density smoothing at the saturation lines"},
+       HP_REF(smoothing_width)},
+      {{"nameplate_charge", "kg", d.nameplate_charge, 0.05, 20.0, false,
+        "factory refrigerant charge, line set included"},
+       HP_REF(nameplate_charge)},
+      {{"internal_gains", "W", d.internal_gains, -2000.0, 20000.0, false,
+        "internal gains when they are not estimated"},
+       HP_REF(internal_gains)},
+      {{"leak_rate", "g/h", d.leak_rate, 0.0, 1e4, false,
+        "refrigerant leak when it is not estimated (the simulator's leak scenario sets it)"},
+       HP_REF(leak_rate)},
+      {{"fouling", "1", d.fouling, 0.2, 1.5, false,
+        "outdoor-coil air-side UA factor when it is not estimated"},
+       HP_REF(fouling)},
+  };
+  return entries;
+}
+
+#undef HP_REF
+
+struct Flag {
+  ParameterInfo info;
+  void (*set)(Params&, bool);
+};
+
+const std::vector<Flag>& flags() {
+  static const std::vector<Flag> entries{
+      {{"augment_internal_gains", "1", 1.0, 0.0, 1.0, true,
+        "1: estimate the zone's internal gains as a random-walk state"},
+       [](Params& p, bool v) { p.augment_gains = v; }},
+      {{"augment_leak", "1", 1.0, 0.0, 1.0, true,
+        "1: estimate the refrigerant leak rate as a random-walk state"},
+       [](Params& p, bool v) { p.augment_leak = v; }},
+      {{"augment_fouling", "1", 0.0, 0.0, 1.0, true,
+        "1: estimate the outdoor-coil air-side UA factor as a random-walk state"},
+       [](Params& p, bool v) { p.augment_fouling = v; }},
+  };
+  return entries;
+}
+
+constexpr const char* kZonePrefix = "zone_";
+
+}  // namespace
+
+std::vector<ParameterInfo> parameter_info() {
+  std::vector<ParameterInfo> out;
+  out.push_back({"cells", "1", 10.0, 2.0, 40.0, true, "finite-volume cells per heat exchanger"});
+  for (const auto& f : flags())
+    out.push_back(f.info);
+  for (const auto& e : table())
+    out.push_back(e.info);
+  for (ParameterInfo z : ZoneRc::parameter_info()) {
+    if (z.name == "hp_fraction_air") continue;  // the indoor unit blows into the air node
+    z.name = kZonePrefix + z.name;
+    z.description = "zone: " + z.description;
+    out.push_back(z);
+  }
+  return out;
+}
+
+Params params_from_map(const ParameterMap& values) {
+  Params p;
+  const auto get = [&values](const std::string& name, double fallback) {
+    const auto it = values.find(name);
+    return it == values.end() ? fallback : it->second;
+  };
+  p.cells = static_cast<int>(get("cells", p.cells));
+  for (const auto& f : flags())
+    f.set(p, get(f.info.name, f.info.default_value) != 0.0);
+  for (const auto& e : table())
+    e.ref(p) = get(e.info.name, e.info.default_value);
+  ParameterMap zone;
+  const std::string prefix = kZonePrefix;
+  for (const auto& [k, v] : values)
+    if (k.rfind(prefix, 0) == 0) zone[k.substr(prefix.size())] = v;
+  zone["hp_fraction_air"] = 1.0;
+  p.zone = ZoneRc(zone).params();
+  return p;
+}
+
+}  // namespace hvac_twin::plant::hp

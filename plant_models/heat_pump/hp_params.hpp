@@ -1,0 +1,70 @@
+// Parameters of the R32 split heat pump in cooling mode (outdoor coil = condenser, indoor coil
+// = evaporator) and of the zone it serves, in SI units. Defaults describe a small split unit of
+// about 3.5 kW rated cooling; plant_models/README.md says where each value comes from.
+#pragma once
+
+#include <vector>
+
+#include "plant_models/core/model_info.hpp"
+#include "plant_models/zone/zone_rc.hpp"
+
+namespace hvac_twin::plant::hp {
+
+struct CoilParams {
+  double volume;         // m3, refrigerant side
+  double inner_area;     // m2, refrigerant-side heat transfer area
+  double wall_capacity;  // J/K, tubes and fins
+  double ua_air;         // W/K, air side at rated air flow
+  double air_flow;       // kg/s, rated
+  double dp_nominal;     // Pa, refrigerant pressure drop at the nominal mass flow
+  double htc_two_phase;  // W/(m2 K), condensing or boiling
+};
+
+struct Params {
+  // Structure.
+  int cells = 10;
+  bool augment_gains = true;
+  bool augment_leak = true;
+  bool augment_fouling = false;
+
+  // Compressor (variable-speed rotary).
+  double displacement = 13.0e-6;    // m3 per revolution
+  double speed_rated = 50.0;        // Hz
+  double eta_v0 = 0.95;             // volumetric efficiency at pressure ratio 1
+  double eta_v_slope = 0.025;       // its loss per unit of pressure ratio above 1
+  double eta_is_peak = 0.70;        // isentropic efficiency at the best pressure ratio and speed
+  double pi_optimum = 2.8;          // pressure ratio of the peak
+  double eta_is_pi_curv = 0.015;    // loss per (pressure ratio - optimum)^2
+  double eta_is_speed_curv = 0.10;  // loss per ((speed - rated)/rated)^2
+  double kappa = 1.19;              // polytropic exponent of the isentropic work
+  double motor_efficiency = 0.90;   // electric -> shaft
+
+  // Electronic expansion valve: mdot = C a sqrt(2 rho_in dp).
+  double valve_coefficient = 7.0e-7;  // m2, discharge coefficient times full-open area
+
+  CoilParams cond{1.2e-3, 0.70, 4500.0, 750.0, 0.65, 40e3, 3000.0};
+  CoilParams evap{0.5e-3, 0.39, 2000.0, 450.0, 0.25, 30e3, 4000.0};
+  double htc_liquid = 1500.0;           // W/(m2 K)
+  double htc_vapour = 800.0;            // W/(m2 K)
+  double quality_blend = 0.05;          // 1, width of the heat-transfer blend at x = 0 and x = 1
+  double nominal_mass_flow = 0.0143;    // kg/s, reference of the pressure drops
+  double liquid_line_volume = 9.0e-5;   // m3
+  double suction_line_volume = 2.5e-4;  // m3
+  double fan_ua_exponent = 0.6;         // UA_air ~ (air flow)^exponent
+  double smoothing_width = 300.0;       // J/kg, density smoothing at the saturation lines
+
+  double nameplate_charge = 0.50;  // kg, factory charge incl. a 5 m line set
+
+  // Values of the unknowns when they are not estimated (not augmented).
+  double internal_gains = 300.0;  // W
+  double leak_rate = 0.0;         // g/h
+  double fouling = 1.0;           // 1
+
+  ZoneRc::Params zone{};  // hp_fraction_air is 1: the indoor unit blows into the air node
+};
+
+// The parameter table (names, units, defaults, bounds, descriptions) and the map it reads.
+std::vector<ParameterInfo> parameter_info();
+Params params_from_map(const ParameterMap& values);
+
+}  // namespace hvac_twin::plant::hp

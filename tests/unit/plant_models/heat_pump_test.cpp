@@ -1,0 +1,329 @@
+// Evidence for the R32 heat-pump model: exact derivatives, conservation, the energy balance,
+// a realistic nominal point, and step responses with the right signs and time scales.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "finite_difference.hpp"
+#include "heat_pump_fixture.hpp"
+#include "plant_models/refrigerant/r32_eos.hpp"
+#include "plant_models/refrigerant/r32_smooth.hpp"
+
+using namespace hvac_twin;
+using namespace hvac_twin::plant::hp;
+namespace r32 = hvac_twin::plant::r32;
+using hvac_twin::test::HeatPumpRig;
+using hvac_twin::test::nominal_inputs;
+
+TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasible states",
+          "[heat_pump]") {
+  const HeatPumpRig rig;
+  const auto& m = *rig.model;
+  const std::size_t n = m.num_states(), no = m.num_outputs();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  // Finite-difference steps: 1e-6 of each state's scale.
+  std::vector<double> floor(n, 1.0);
+  for (std::size_t i = 0; i < n; ++i)
+    floor[i] = m.layout().states[i].unit == "kJ/kg" ? 100.0
+               : m.layout().states[i].unit == "kg"  ? 0.1
+               : m.layout().states[i].unit == "W"   ? 100.0
+                                                    : 10.0;
+  double worst_f = 0.0, worst_h = 0.0;
+  int states = 0;
+  for (int op = 0; op < 10; ++op) {
+    // A random operating point, run towards its steady state...
+    const std::vector<double> u{30.0 + 50.0 * U(rng), 0.30 + 0.08 * U(rng), 0.6 + 0.5 * U(rng),
+                                0.6 + 0.5 * U(rng), 22.0 + 20.0 * U(rng)};
+    auto x = rig.start(u[kOutdoorTemperature], 22.0 + 8.0 * U(rng), 0.45 + 0.1 * U(rng));
+    rig.run(x, u, 300.0 + 600.0 * U(rng));
+    for (int j = 0; j < 10; ++j, ++states) {
+      // ... and 10 perturbations of it.
+      auto xp = x;
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto& s = m.layout().states[i];
+        const double scale = s.unit == "kJ/kg" ? 2.0 : s.unit == "degC" ? 0.5 : 0.0;
+        xp[i] += scale * (2.0 * U(rng) - 1.0);
+      }
+      xp[1] *= 1.0 + 0.004 * (2.0 * U(rng) - 1.0);  // M_cond
+      std::vector<double> jac(n * n), xdot(n), hjac(no * n), y(no);
+      REQUIRE(m.rhs_jacobian(xp, u, xdot, jac) == plant::kModelOk);
+      REQUIRE(m.output_jacobian(xp, u, y, hjac) == plant::kModelOk);
+      const auto fd_f =
+          test::central_jacobian([&](std::span<const double> xs,
+                                     std::span<double> out) { REQUIRE(m.rhs(xs, u, out) == 0); },
+                                 xp, n, floor);
+      const auto fd_h = test::central_jacobian(
+          [&](std::span<const double> xs, std::span<double> out) {
+            REQUIRE(m.outputs(xs, u, out) == 0);
+          },
+          xp, no, floor);
+      // Error of each entry relative to the largest entry of its row (the scales of the
+      // columns differ by orders of magnitude).
+      const auto rel = [&](const std::vector<double>& a, const std::vector<double>& b,
+                           std::size_t rows) {
+        double worst = 0.0;
+        for (std::size_t r = 0; r < rows; ++r) {
+          double row_max = 0.0;
+          for (std::size_t c = 0; c < n; ++c)
+            row_max = std::max(row_max, std::abs(b[c * rows + r]));
+          if (row_max == 0.0) continue;
+          for (std::size_t c = 0; c < n; ++c)
+            worst = std::max(worst, std::abs(a[c * rows + r] - b[c * rows + r]) / row_max);
+        }
+        return worst;
+      };
+      worst_f = std::max(worst_f, rel(jac, fd_f, n));
+      worst_h = std::max(worst_h, rel(hjac, fd_h, no));
+    }
+  }
+  INFO("states: " << states << "; largest relative error, f: " << worst_f << ", h: " << worst_h);
+  CHECK(states == 100);
+  CHECK(worst_f < 1e-6);
+  CHECK(worst_h < 1e-6);
+  WARN("heat pump Jacobian vs finite differences at 100 states: f " << worst_f << ", h "
+                                                                    << worst_h);
+}
+
+namespace {
+
+// The inventory recomputed from the outputs and the state, independently of the model's solve:
+// cell pressures from the inlet and outlet pressures (linear friction profile), densities from
+// the smoothed table, volumes from the parameters.
+double inventory(const HeatPumpRig& rig, const std::vector<double>& x,
+                 const std::vector<double>& u) {
+  const auto y = rig.outputs(x, u);
+  const auto& P = rig.hp->params();
+  const auto& L = rig.hp->slots();
+  const auto N = static_cast<double>(L.cells);
+  const auto rho = [&](double p, double h_kj) {
+    return r32::smooth_ph(p, 1e3 * h_kj, P.smoothing_width).rho;
+  };
+  const double pc = y[kDischargePressure], pc_out = y[kCondenserOutletPressure];
+  const double pe = y[kSuctionPressure];
+  // The evaporator drop is the condenser drop scaled by the nominal drops (same flow).
+  const double dpe = (pc - pc_out) * P.evap.dp_nominal / P.cond.dp_nominal;
+  double m =
+      P.liquid_line_volume * rho(pc_out, x[L.h_ll]) + P.suction_line_volume * rho(pe, x[L.h_sl]);
+  for (std::size_t k = 0; k < L.cells; ++k) {
+    const double along = (static_cast<double>(k) + 0.5) / N;
+    m += P.cond.volume / N * rho(pc - (pc - pc_out) * along, x[L.h_cond[k]]);
+    m += P.evap.volume / N * rho(pe + dpe * (1.0 - along), x[L.h_evap[k]]);
+  }
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("refrigerant mass is conserved over 24 simulated hours of operation",
+          "[heat_pump][conservation]") {
+  const HeatPumpRig rig;
+  auto x = rig.start();
+  auto u = nominal_inputs();
+  const double m0 = inventory(rig, x, u);
+  CHECK(m0 == Approx(0.5).epsilon(1e-9));
+  // A day of operation: speed, valve, fans and weather change every hour.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  double worst = 0.0;
+  for (int hour = 0; hour < 24; ++hour) {
+    u = {30.0 + 45.0 * U(rng), 0.30 + 0.07 * U(rng), 0.7 + 0.4 * U(rng), 0.7 + 0.4 * U(rng),
+         25.0 + 12.0 * U(rng)};
+    rig.run(x, u, 3600.0, 300.0);
+    worst = std::max(worst, std::abs(inventory(rig, x, u) - m0) / m0);
+  }
+  INFO("largest relative change of the refrigerant inventory over 24 h: " << worst);
+  CHECK(worst < 1e-6);
+  WARN("mass conservation over 24 h: largest relative change " << worst);
+}
+
+TEST_CASE("a leak removes exactly the leaked mass", "[heat_pump][conservation]") {
+  const HeatPumpRig rig;
+  auto x = rig.start();
+  const auto& L = rig.hp->slots();
+  x[L.leak] = 2.0;  // g/h
+  const auto u = nominal_inputs();
+  rig.run(x, u, 24 * 3600.0, 600.0);
+  CHECK(x[L.charge] == Approx(0.5 - 0.048).epsilon(1e-9));
+  CHECK(inventory(rig, x, u) == Approx(0.5 - 0.048).epsilon(1e-9));
+}
+
+TEST_CASE("at steady state the condenser rejects the evaporator's heat plus the compressor's",
+          "[heat_pump][energy]") {
+  const HeatPumpRig rig(HeatPumpRig::pinned_zone());
+  auto x = rig.start();
+  const auto u = nominal_inputs();
+  rig.run(x, u, 3 * 3600.0);
+  const auto y = rig.outputs(x, u);
+  const double w_ref = y[kCompressorPower] * rig.hp->params().motor_efficiency;
+  const double imbalance =
+      (y[kCondenserHeatFlow] - y[kEvaporatorHeatFlow] - w_ref) / y[kCondenserHeatFlow];
+  INFO("Q_cond " << y[kCondenserHeatFlow] << " W, Q_evap " << y[kEvaporatorHeatFlow]
+                 << " W, W_comp " << w_ref << " W");
+  CHECK(std::abs(imbalance) < 0.005);
+  // Also the air side: at steady state the walls pass on what the refrigerant takes.
+  CHECK(y[kCoolingCapacity] == Approx(y[kEvaporatorHeatFlow]).epsilon(1e-3));
+  WARN("steady-state energy balance: relative imbalance " << imbalance);
+}
+
+TEST_CASE("the nominal point (35 degC outdoor, 27 degC indoor, rated speed) is realistic",
+          "[heat_pump][nominal]") {
+  const HeatPumpRig rig(HeatPumpRig::pinned_zone());
+  auto x = rig.start();
+  const auto u = nominal_inputs();
+  rig.run(x, u, 3 * 3600.0);
+  const auto y = rig.outputs(x, u);
+  WARN("nominal point: suction " << y[kSuctionPressure] / 1e6 << " MPa, discharge "
+                                 << y[kDischargePressure] / 1e6 << " MPa, superheat "
+                                 << y[kSuperheat] << " K, subcooling " << y[kSubcooling]
+                                 << " K, capacity " << y[kCoolingCapacity] << " W, power "
+                                 << y[kCompressorPower] << " W, COP " << y[kCop] << ", discharge "
+                                 << y[kDischargeTemperature] << " degC");
+  CHECK(y[kSuctionPressure] > 0.8e6);
+  CHECK(y[kSuctionPressure] < 1.1e6);
+  CHECK(y[kDischargePressure] > 2.2e6);
+  CHECK(y[kDischargePressure] < 3.3e6);
+  CHECK(y[kSuperheat] > 2.0);
+  CHECK(y[kSuperheat] < 10.0);
+  CHECK(y[kSubcooling] > 2.0);
+  CHECK(y[kSubcooling] < 10.0);
+  CHECK(y[kCoolingCapacity] == Approx(3500.0).epsilon(0.1));
+  CHECK(y[kCop] > 3.0);
+  CHECK(y[kCop] < 5.0);
+}
+
+namespace {
+
+struct Response {
+  double initial, final;
+  double t63;  // time to 63 % of the change [s], interpolated between samples
+  double t95;  // time after which the output stays within 5 % of the change [s]
+};
+
+// Runs from x for `seconds` with u, sampling output o every 0.25 s for the first minute and
+// every 5 s after.
+Response step_response(const HeatPumpRig& rig, std::vector<double> x, const std::vector<double>& u,
+                       std::size_t o, double seconds) {
+  std::vector<std::pair<double, double>> trace{{0.0, rig.outputs(x, u)[o]}};
+  for (double t = 0.0; t < seconds;) {
+    const double dt = t < 60.0 ? 0.25 : 5.0;
+    rig.run(x, u, dt, dt);
+    t += dt;
+    trace.emplace_back(t, rig.outputs(x, u)[o]);
+  }
+  Response r{trace.front().second, trace.back().second, -1.0, 0.0};
+  const double change = r.final - r.initial;
+  for (std::size_t i = 1; i < trace.size() && r.t63 < 0.0; ++i) {
+    const double a = (trace[i - 1].second - r.initial) / change;
+    const double b = (trace[i].second - r.initial) / change;
+    if (b >= 0.632)
+      r.t63 = trace[i - 1].first + (0.632 - a) / (b - a) * (trace[i].first - trace[i - 1].first);
+  }
+  for (const auto& [t, v] : trace)
+    if (std::abs(v - r.final) > 0.05 * std::abs(change)) r.t95 = t;
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("step responses have the right signs and plausible time constants",
+          "[heat_pump][dynamics]") {
+  const HeatPumpRig rig(HeatPumpRig::pinned_zone());
+  auto x0 = rig.start();
+  const auto u0 = nominal_inputs();
+  rig.run(x0, u0, 3 * 3600.0);
+
+  // Light tube-and-fin walls couple fast (C_wall / (htc A) ~ 1-2 s, C_wall / UA_air ~ 4-6 s)
+  // and the refrigerant inventory redistributes in seconds, so responses settle within a
+  // minute or two; an instantaneous jump (no dynamics) or hours would both be wrong.
+  SECTION("compressor speed 50 -> 60 Hz") {
+    auto u = u0;
+    u[kCompressorSpeed] = 60.0;
+    const auto ps = step_response(rig, x0, u, kSuctionPressure, 600.0);
+    const auto pd = step_response(rig, x0, u, kDischargePressure, 600.0);
+    const auto q = step_response(rig, x0, u, kCoolingCapacity, 600.0);
+    const auto w = step_response(rig, x0, u, kCompressorPower, 600.0);
+    WARN("speed step 50 -> 60 Hz: suction "
+         << ps.initial << " -> " << ps.final << " Pa (t63 " << ps.t63 << " s, t95 " << ps.t95
+         << " s), discharge " << pd.initial << " -> " << pd.final << " Pa (t63 " << pd.t63
+         << " s, t95 " << pd.t95 << " s), capacity " << q.initial << " -> " << q.final
+         << " W, power " << w.initial << " -> " << w.final << " W");
+    CHECK(ps.final < ps.initial);
+    CHECK(pd.final > pd.initial);
+    CHECK(q.final > q.initial);
+    CHECK(w.final > w.initial);
+    for (const auto& r : {ps, pd}) {
+      CHECK(r.t63 > 0.25);
+      CHECK(r.t95 < 300.0);
+    }
+  }
+  SECTION("expansion valve 0.355 -> 0.365") {
+    auto u = u0;
+    u[kValveOpening] = 0.365;
+    const auto sh = step_response(rig, x0, u, kSuperheat, 600.0);
+    const auto ps = step_response(rig, x0, u, kSuctionPressure, 600.0);
+    const auto sc = step_response(rig, x0, u, kSubcooling, 600.0);
+    WARN("valve step 0.355 -> 0.365: superheat "
+         << sh.initial << " -> " << sh.final << " K (t63 " << sh.t63 << " s, t95 " << sh.t95
+         << " s), suction " << ps.initial << " -> " << ps.final << " Pa, subcooling " << sc.initial
+         << " -> " << sc.final << " K");
+    CHECK(sh.final < sh.initial);
+    CHECK(ps.final > ps.initial);
+    CHECK(sc.final < sc.initial);
+    CHECK(sh.t63 > 0.25);
+    CHECK(sh.t95 < 300.0);
+  }
+}
+
+TEST_CASE("the compressor's polytropic work matches the EOS isentropic work", "[heat_pump]") {
+  // Isentropic enthalpy rise from the reference EOS (entropy at the suction state, then the
+  // temperature on the discharge isobar with that entropy), against the model's polytropic
+  // formula with kappa = 1.19, over suction 0.8-1.1 MPa, superheat 2-10 K, ratio 2-3.5.
+  const Params P;
+  double worst = 0.0;
+  for (double pe : {0.8e6, 0.95e6, 1.1e6})
+    for (double sh : {2.0, 5.0, 10.0})
+      for (double pi : {2.0, 2.8, 3.5}) {
+        const auto sat = r32::saturation_p(pe);
+        const double t_suc = sat.T + sh;
+        const auto suc = r32::properties_trho(t_suc, r32::density_pt(pe, t_suc).rho);
+        double lo = 250.0, hi = 430.0;
+        for (int i = 0; i < 80; ++i) {
+          const double t = 0.5 * (lo + hi);
+          const double s = r32::properties_trho(t, r32::density_pt(pe * pi, t).rho).s;
+          (s < suc.s ? lo : hi) = t;
+        }
+        const double t_dis = 0.5 * (lo + hi);
+        const double dh_eos =
+            r32::properties_trho(t_dis, r32::density_pt(pe * pi, t_dis).rho).h - suc.h;
+        // The model: w_ref = mdot dh_is / eta_is, so dh_is = (h_dis - h_suc) eta_is.
+        const auto flow = compressor(P, pe, suc.rho, suc.h, pe * pi, P.speed_rated);
+        const double pi_term = pi - P.pi_optimum;
+        const double eta_is = P.eta_is_peak - P.eta_is_pi_curv * pi_term * pi_term;
+        const double dh_model = (flow.h_dis - suc.h) * eta_is;
+        worst = std::max(worst, std::abs(dh_model - dh_eos) / dh_eos);
+      }
+  INFO("largest relative error of the isentropic work " << worst);
+  CHECK(worst < 0.01);
+}
+
+TEST_CASE("the heat pump's layout follows its structural parameters", "[heat_pump]") {
+  const HeatPumpRig small({{"cells", 4}, {"augment_fouling", 1}, {"augment_leak", 0}});
+  const auto& L = small.model->layout();
+  CHECK(small.hp->slots().cells == 4);
+  CHECK(L.states.size() == 2 + 4 * 4 + 2 + 2 + 2);  // masses, 4 x N, lines, zone, gains+fouling
+  CHECK(L.state("fouling").has_value());
+  CHECK_FALSE(L.state("leak_rate").has_value());
+  std::set<std::string> names;
+  for (const auto& s : L.states)
+    names.insert(s.name);
+  CHECK(names.size() == L.states.size());
+  for (const auto& s : L.states) {
+    INFO(s.name);
+    CHECK(s.initial >= s.min);
+    CHECK(s.initial <= s.max);
+  }
+  CHECK(L.outputs.size() == kNumOutputs);
+  CHECK(L.inputs.size() == kNumInputs);
+}
