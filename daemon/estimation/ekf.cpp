@@ -33,7 +33,7 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
     throw std::invalid_argument("EKF: process noise must have one entry per state");
   const auto n = static_cast<Eigen::Index>(n_), m = static_cast<Eigen::Index>(m_);
   x_ = x_prior_ = x_good_ = Eigen::VectorXd::Zero(n);
-  P_ = P_good_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  P_ = P_good_ = P_initial_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
   H_ = Eigen::MatrixXd::Zero(m, n);
   y_ = Eigen::VectorXd::Zero(m);
   ph_ = k_ = bh_ = Eigen::VectorXd::Zero(n);
@@ -61,6 +61,8 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   }
   x_good_ = x_;
   P_good_ = P_;
+  P_initial_ = P_;
+  lost_updates_ = 0;
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
 }
 
@@ -96,28 +98,22 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   x_prior_ = x_;
 
   // Test every measurement against the prior, as the published innovations are.
-  for (std::size_t i = 0; i < count; ++i) {
-    const Measurement& mz = z[i];
-    MeasurementReport& rep = reports[i];
-    const auto o = static_cast<Eigen::Index>(mz.output);
-    rep.available =
-        mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
-    if (!rep.available) continue;
-    const double r = std::max(mz.variance, options_.min_measurement_variance);
-    ph_.noalias() = P_ * H_.row(o).transpose();
-    rep.predicted = y_(o);
-    rep.innovation = mz.value - y_(o);
-    rep.innovation_variance = H_.row(o).dot(ph_) + r;
-    rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
-    if (!(rep.test_ratio <= options_.nis_gate)) {
-      rep.rejected = true;
-      ++counters_.gate_rejections;
-      ++consecutive_rejections_[i];
-    } else {
-      rep.fused = true;  // fused below
-      consecutive_rejections_[i] = 0;
+  std::size_t available = 0;
+  const std::size_t rejected = gate(z, reports, count, available);
+  if (available >= 2 && 2 * rejected > available) {
+    if (++lost_updates_ >= options_.max_consecutive_rejections) {
+      // Lost: most points contradict the covariance for several updates. Start the covariance
+      // afresh (x kept) and test the same measurements again.
+      lost_updates_ = 0;
+      ++counters_.covariance_resets;
+      counters_.gate_rejections -= rejected;
+      for (std::size_t i = 0; i < count; ++i)
+        if (reports[i].rejected) --consecutive_rejections_[i];
+      P_ = P_initial_;
+      gate(z, reports, count, available);
     }
-    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+  } else {
+    lost_updates_ = 0;
   }
   for (std::size_t i = 0; i < count; ++i) {
     if (!reports[i].fused) continue;
@@ -126,6 +122,39 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     ++counters_.fused;
   }
   return finish_step();
+}
+
+std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
+                      std::size_t count, std::size_t& available) {
+  std::size_t rejected = 0;
+  available = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Measurement& mz = z[i];
+    MeasurementReport& rep = reports[i];
+    rep = MeasurementReport{};
+    const auto o = static_cast<Eigen::Index>(mz.output);
+    rep.available =
+        mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
+    if (!rep.available) continue;
+    ++available;
+    const double r = std::max(mz.variance, options_.min_measurement_variance);
+    ph_.noalias() = P_ * H_.row(o).transpose();
+    rep.predicted = y_(o);
+    rep.innovation = mz.value - y_(o);
+    rep.innovation_variance = H_.row(o).dot(ph_) + r;
+    rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
+    if (!(rep.test_ratio <= options_.nis_gate)) {
+      rep.rejected = true;
+      ++rejected;
+      ++counters_.gate_rejections;
+      ++consecutive_rejections_[i];
+    } else {
+      rep.fused = true;  // fused by update()
+      consecutive_rejections_[i] = 0;
+    }
+    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+  }
+  return rejected;
 }
 
 void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {

@@ -8,7 +8,10 @@
 // time, linearised at x⁻ (ν_k = z_k - h_k(x⁻) - H_k (x - x⁻)), which equals the batch update for
 // diagonal R, with the Joseph form for P. After each step the health check requires x and P
 // finite and P symmetric positive definite (Cholesky); otherwise the last good (x, P) is restored
-// and a numerical reset is counted.
+// and a numerical reset is counted. A filter that has lost track (most available measurements
+// gated out in max_consecutive_rejections updates in a row: its covariance claims a certainty
+// the data contradicts) gets its initial covariance back, keeping x, and re-tests the same
+// measurements; that is counted as a covariance reset.
 //
 // Pure library: no I/O, no clock (dt is passed in). Construction allocates; reset(), predict(),
 // update() and output_estimates() never allocate and never throw. One instance per thread.
@@ -68,6 +71,7 @@ struct EkfCounters {
   std::uint64_t gate_rejections = 0;
   std::uint64_t predict_failures = 0;
   std::uint64_t numerical_resets = 0;
+  std::uint64_t covariance_resets = 0;
 };
 
 class Ekf {
@@ -101,6 +105,9 @@ class Ekf {
  private:
   bool healthy();
   StepStatus finish_step();
+  // Tests every measurement of z against the current P; returns how many available ones failed.
+  std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
+                   std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
 
   const plant::ContinuousModel& model_;
@@ -109,7 +116,7 @@ class Ekf {
   plant::Integrator integrator_;
 
   Eigen::VectorXd x_, x_prior_, x_good_;
-  Eigen::MatrixXd P_, P_good_, F_, Qc_, Qd_, tmp_;
+  Eigen::MatrixXd P_, P_good_, P_initial_, F_, Qc_, Qd_, tmp_;
   Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
   Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;
@@ -117,6 +124,7 @@ class Ekf {
   Eigen::VectorXd max_var_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
   std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
+  int lost_updates_ = 0;                     // consecutive updates with most points gated out
   std::vector<double> x_buf_;                // contiguous scratch for the integrator
   EkfCounters counters_;
 };

@@ -8,7 +8,9 @@
 //                              std::span<S> xdot) const;
 //   template <class S> int outputs(std::span<const S> x, std::span<const double> u,
 //                                  std::span<S> y) const;
-// with the status convention of model.hpp, and is copyable.
+// with the status convention of model.hpp, and is copyable. It may also provide
+//   bool initial_guess(std::span<const double> u, std::span<const double> y,
+//                      std::span<double> x) const;   (see ContinuousModel)
 #pragma once
 
 #include <algorithm>
@@ -60,6 +62,15 @@ class AdModel final : public ContinuousModel {
     return jacobian(x, u, y, jac, y_, [this](auto xs, auto us, auto out) {
       return model_.template outputs<Scalar>(xs, us, out);
     });
+  }
+
+  bool initial_guess(std::span<const double> u, std::span<const double> y,
+                     std::span<double> x) const override {
+    if constexpr (requires { model_.initial_guess(u, y, x); }) {
+      return model_.initial_guess(u, y, x);
+    } else {
+      return ContinuousModel::initial_guess(u, y, x);
+    }
   }
 
   [[nodiscard]] std::unique_ptr<ContinuousModel> clone() const override {

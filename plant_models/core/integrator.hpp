@@ -25,11 +25,13 @@ struct IntegratorOptions {
   long max_steps = 20000;      // per step() call
   double max_step_s = 0.0;     // largest internal step [s]; 0 = unlimited
   bool sensitivities = false;  // compute F in step()
-  // Include sensitivities in the local error test. Slower, but F then meets the tolerances
-  // itself rather than riding on the state's step sequence. Absolute tolerance of dx_i/dx0_j is
-  // abs_tol_i / (abs_tol_j / rel_tol): a perturbation of x0_j at its resolution scale must move
-  // x_i by no more than x_i's own tolerance.
-  bool sensitivity_error_control = true;
+  // Include sensitivities in the local error test. Off (the default), F rides on the steps the
+  // state's own accuracy needs, with the staggered sensitivity corrector converged on each; on,
+  // F meets the tolerances itself, at the price of many more steps for stiff models (on the
+  // heat pump: 184 instead of 14 steps per 10 s, 240 ms instead of 28 ms). Absolute tolerance of
+  // dx_i/dx0_j is abs_tol_i / (abs_tol_j / rel_tol): a perturbation of x0_j at its resolution
+  // scale must move x_i by no more than x_i's own tolerance.
+  bool sensitivity_error_control = false;
 };
 
 struct IntegrationStats {

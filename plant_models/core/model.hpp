@@ -50,6 +50,18 @@ class ContinuousModel {
   virtual int output_jacobian(std::span<const double> x, std::span<const double> u,
                               std::span<double> y, std::span<double> jac) const = 0;
 
+  // A consistent starting state at the conditions the first cycle sees: the inputs u, and the
+  // measured outputs y (NaN where not measured). Models whose state must be internally
+  // consistent (the heat pump's masses, pressures and enthalpies) implement it; false: use the
+  // layout's defaults. Start-up only (may allocate).
+  virtual bool initial_guess(std::span<const double> u, std::span<const double> y,
+                             std::span<double> x) const {
+    (void)u;
+    (void)y;
+    (void)x;
+    return false;
+  }
+
   [[nodiscard]] virtual std::unique_ptr<ContinuousModel> clone() const = 0;
 };
 

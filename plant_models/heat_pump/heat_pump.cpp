@@ -172,6 +172,16 @@ std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
   return x;
 }
 
+bool HeatPumpR32::initial_guess(std::span<const double> u, std::span<const double> y,
+                                std::span<double> x) const {
+  const double t_zone =
+      std::isfinite(y[hp::kZoneAirTemperature]) ? y[hp::kZoneAirTemperature] : 26.0;
+  const std::vector<double> x0 =
+      initial_state(u[hp::kOutdoorTemperature], t_zone, p_.nameplate_charge);
+  std::copy(x0.begin(), x0.end(), x.begin());
+  return true;
+}
+
 ModelLayout HeatPumpR32::make_layout() const {
   const std::size_t N = n_;
   const std::vector<double> x0 = initial_state(35.0, 27.0, p_.nameplate_charge);

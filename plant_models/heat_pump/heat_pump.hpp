@@ -61,6 +61,11 @@ class HeatPumpR32 {
   [[nodiscard]] std::vector<double> initial_state(double t_out_c, double t_zone_c,
                                                   double charge) const;
 
+  // initial_state() at the outdoor temperature of u and the measured zone temperature (26 degC
+  // when not measured), with the nameplate charge.
+  bool initial_guess(std::span<const double> u, std::span<const double> y,
+                     std::span<double> x) const;
+
   // One cell of refrigerant after the pressure solve.
   template <class S>
   struct Cell {

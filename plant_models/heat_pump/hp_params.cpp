@@ -107,8 +107,9 @@ const std::vector<Entry>& table() {
       {{"fan_ua_exponent", "1", d.fan_ua_exponent, 0.3, 1.0, false,
         "exponent of the air flow in the air-side conductance"},
        HP_REF(fan_ua_exponent)},
-      {{"smoothing_width", "J/kg", d.smoothing_width, 10.0, 5000.0, false,
-        "enthalpy width of the density smoothing at the saturation lines"},
+      {{"smoothing_width", "J/kg", d.smoothing_width, 0.0, 5000.0, false,
+        "enthalpy width of the density smoothing at the saturation lines (0: none, the raw "
+        "table's kinks)"},
        HP_REF(smoothing_width)},
       {{"nameplate_charge", "kg", d.nameplate_charge, 0.05, 20.0, false,
         "factory refrigerant charge, line set included"},

@@ -17,7 +17,7 @@
 // (8 % at 0.3 MPa, below any heat-pump operating point) and under 0.3 % at the dew line; the
 // mass it moves is a fraction of one cell's, and only while that cell crosses the line.
 //
-// Units SI as r32_table.hpp. Templated on the scalar (double or Dual<K>): the partials carry
+// width_h = 0 returns the raw table (for comparisons). Units SI as r32_table.hpp. Templated on the scalar (double or Dual<K>): the partials carry
 // exact tangents too. No allocation, no exceptions; thread-safe (reads the shared table).
 #pragma once
 
@@ -81,7 +81,7 @@ SmoothState<S> smooth_ph(const S& p, const S& h, double width_h = kDefaultSmooth
   out.rho = raw.rho;
   out.drho_dp = raw.drho_dp_h;
   out.drho_dh = raw.drho_dh_p;
-  if (raw.status != Status::kOk) return out;
+  if (raw.status != Status::kOk || width_h <= 0.0) return out;  // width 0: the raw table
 
   const SatState<S> sat = table.sat_p(p);
   const S hfg = sat.h_v - sat.h_l;

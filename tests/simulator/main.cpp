@@ -47,7 +47,11 @@ void usage(std::FILE* to) {
       "  --time-scale X      model seconds per wall second (default: runtime.time_scale)\n"
       "  --step S            model seconds per truth step (default 5)\n"
       "  --noise-scale X     sensor noise = X * the unit's measurement_noise (default 1)\n"
-      "  --set NAME=VALUE    a truth parameter differing from the configuration (repeatable)\n"
+      "  --set NAME=VALUE    a truth parameter differing from the configuration (repeatable),\n"
+      "                      e.g. --set cells=20 --set cond_ua_air=690 for a finer, perturbed "
+      "truth\n"
+      "  --leak G@H          heat pump: a refrigerant leak of G g/h from hour H of the scenario\n"
+      "  --charge KG         heat pump: the truth's refrigerant charge (default: nameplate)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
       "  --duration S        stop after S wall seconds (default: run until SIGINT/SIGTERM)\n"
       "  --quiet             no progress lines\n"
@@ -107,6 +111,14 @@ bool parse(int argc, char** argv, Args& a) {
       a.sim.noise_scale = std::stod(take());
     } else if (arg == "--duration") {
       a.duration = std::stod(take());
+    } else if (arg == "--leak") {
+      const std::string spec = take();
+      const auto at = spec.find('@');
+      a.sim.scenario.leak_g_per_h = std::stod(spec.substr(0, at));
+      a.sim.scenario.leak_start_s =
+          at == std::string::npos ? 0.0 : 3600.0 * std::stod(spec.substr(at + 1));
+    } else if (arg == "--charge") {
+      a.sim.scenario.charge_kg = std::stod(take());
     } else if (arg == "--set") {
       const std::string kv = take();
       const auto eq = kv.find('=');

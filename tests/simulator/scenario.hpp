@@ -1,25 +1,39 @@
-// What drives a truth simulation: inputs (actuators, weather) and disturbance states over time.
+// What drives a truth simulation: the initial state, the inputs (actuators, weather) and the
+// disturbance states over time. Each model type has its own.
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <string_view>
+#include <vector>
 
-#include "plant_models/core/model_info.hpp"
+#include "plant_models/core/model.hpp"
 
 namespace hvac_twin::sim {
+
+struct ScenarioOptions {
+  std::uint64_t seed = 1;
+  double leak_g_per_h = 0.0;  // refrigerant leak rate from leak_start_s on (heat pump)
+  double leak_start_s = 0.0;
+  double charge_kg = 0.0;  // truth refrigerant charge (heat pump); 0: the nameplate charge
+};
 
 class Scenario {
  public:
   virtual ~Scenario() = default;
-  // Called before the truth advances over [t, t + dt] (model seconds since the start): sets the
-  // inputs u (model units) and may overwrite disturbance states of x (e.g. internal gains).
-  virtual void drive(double t, double dt, std::span<double> x, std::span<double> u) = 0;
+  // The truth's state at t = 0 (and the scenario's controllers initialised to it).
+  virtual std::vector<double> initial_state() = 0;
+  // Called before the truth advances over [t, t + dt] (model seconds since the start), with the
+  // outputs y at the current state: sets the inputs u (model units) and may overwrite
+  // disturbance states of x (internal gains, a leak).
+  virtual void drive(double t, double dt, std::span<double> x, std::span<const double> y,
+                     std::span<double> u) = 0;
 };
 
-// The scenario for a model type; throws std::invalid_argument for a type without one.
+// The scenario for the model's type; throws std::invalid_argument for a type without one.
 std::unique_ptr<Scenario> make_scenario(std::string_view model_type,
-                                        const plant::ModelLayout& layout, std::uint64_t seed);
+                                        const plant::ContinuousModel& model,
+                                        const ScenarioOptions& options);
 
 }  // namespace hvac_twin::sim

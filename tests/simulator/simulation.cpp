@@ -19,13 +19,13 @@ Simulation::Simulation(const config::UnitConfig& unit, const SimOptions& options
   io.rel_tol = 1e-8;
   integrator_ = std::make_unique<plant::Integrator>(*model_, io);
   const plant::ModelLayout& layout = model_->layout();
-  scenario_ = make_scenario(unit.model.type, layout, options.seed);
-
-  // The truth starts away from the filter's default guess (seeded), so estimates must converge.
-  std::normal_distribution<double> g(0.0, 1.0);
-  for (const auto& s : layout.states)
-    x_.push_back(s.augmented ? s.initial : s.initial + 0.5 * s.initial_std * g(rng_));
+  ScenarioOptions so = options.scenario;
+  so.seed = options.seed;
+  scenario_ = make_scenario(unit.model.type, *model_, so);
+  x_ = scenario_->initial_state();
   u_.assign(layout.inputs.size(), 0.0);
+  for (std::size_t i = 0; i < layout.inputs.size(); ++i)
+    if (std::isfinite(layout.inputs[i].default_value)) u_[i] = layout.inputs[i].default_value;
   y_.assign(layout.outputs.size(), 0.0);
 
   for (const auto& p : unit.points) {
@@ -45,14 +45,20 @@ Simulation::Simulation(const config::UnitConfig& unit, const SimOptions& options
     }
     noise_sigma_.push_back(sigma);
   }
-  scenario_->drive(t_, options_.step_s, x_, u_);
+  drive();
+}
+
+void Simulation::drive() {
+  // The scenario sees the outputs at the current state with the inputs held so far.
+  model_->outputs(x_, u_, y_);
+  scenario_->drive(t_, options_.step_s, x_, y_, u_);
 }
 
 bool Simulation::step() {
   // u_ was set by the scenario at the start of this interval and is held over it.
   if (!integrator_->step(x_, u_, options_.step_s, {}).ok()) return false;
   t_ += options_.step_s;
-  scenario_->drive(t_, options_.step_s, x_, u_);  // inputs of the next interval
+  drive();  // inputs of the next interval
   return true;
 }
 

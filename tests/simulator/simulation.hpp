@@ -19,6 +19,7 @@ namespace hvac_twin::sim {
 
 struct SimOptions {
   std::uint64_t seed = 1;
+  ScenarioOptions scenario;  // its seed is set from `seed`
   double step_s = 5.0;       // model seconds per truth step
   double noise_scale = 1.0;  // sensor noise sigma = noise_scale * the unit's measurement_noise
   plant::ParameterMap parameter_overrides;  // truth parameters differing from the configuration
@@ -45,6 +46,8 @@ class Simulation {
   void write_csv_row(std::ostream& out, std::int64_t wall_time_ns);
 
  private:
+  void drive();
+
   config::UnitConfig unit_;
   SimOptions options_;
   std::unique_ptr<plant::ContinuousModel> model_;

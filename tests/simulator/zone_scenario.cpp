@@ -21,7 +21,7 @@ constexpr double kStartOfDay = 6.0 * 3600.0;
 
 class ZoneScenario final : public Scenario {
  public:
-  ZoneScenario(const plant::ModelLayout& layout, std::uint64_t seed) : rng_(seed) {
+  ZoneScenario(const plant::ModelLayout& layout, std::uint64_t seed) : layout_(layout), rng_(seed) {
     const auto need = [](auto idx, const char* name) {
       if (!idx) throw std::invalid_argument(std::string("zone scenario needs ") + name);
       return *idx;
@@ -32,7 +32,18 @@ class ZoneScenario final : public Scenario {
     t_out_ = need(layout.input("outdoor_temperature"), "input outdoor_temperature");
   }
 
-  void drive(double t, double dt, std::span<double> x, std::span<double> u) override {
+  // The layout's defaults, away from them by half their standard deviation (seeded), so the
+  // filter's default guess must converge.
+  std::vector<double> initial_state() override {
+    std::normal_distribution<double> g(0.0, 1.0);
+    std::vector<double> x;
+    for (const auto& s : layout_.states)
+      x.push_back(s.augmented ? s.initial : s.initial + 0.5 * s.initial_std * g(rng_));
+    return x;
+  }
+
+  void drive(double t, double dt, std::span<double> x, std::span<const double> /*y*/,
+             std::span<double> u) override {
     const double clock = std::fmod(kStartOfDay + t, kDay);
     u[t_out_] = 4.0 + 6.0 * std::sin(2.0 * std::numbers::pi * (clock - 11.0 * 3600.0) / kDay);
 
@@ -55,6 +66,7 @@ class ZoneScenario final : public Scenario {
   static constexpr double kKp = 1500.0;        // W/K
   static constexpr double kKi = kKp / 1800.0;  // W/(K s)
   static constexpr double kMaxHeat = 6000.0;   // W
+  plant::ModelLayout layout_;
   std::mt19937_64 rng_;
   std::size_t t_air_ = 0, q_int_ = 0, q_hp_ = 0, t_out_ = 0;
   long gain_block_ = -1;
@@ -64,11 +76,9 @@ class ZoneScenario final : public Scenario {
 
 }  // namespace
 
-std::unique_ptr<Scenario> make_scenario(std::string_view model_type,
-                                        const plant::ModelLayout& layout, std::uint64_t seed) {
-  if (model_type == "zone_rc") return std::make_unique<ZoneScenario>(layout, seed);
-  throw std::invalid_argument("no simulator scenario for model type \"" + std::string(model_type) +
-                              "\"");
+std::unique_ptr<Scenario> make_zone_scenario(const plant::ContinuousModel& model,
+                                             const ScenarioOptions& options) {
+  return std::make_unique<ZoneScenario>(model.layout(), options.seed);
 }
 
 }  // namespace hvac_twin::sim

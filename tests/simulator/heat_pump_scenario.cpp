@@ -1,0 +1,89 @@
+// The heat-pump scenario: a summer day for a split unit in cooling mode.
+//  - outdoor temperature: 30 degC mean, +-6 K daily sine, warmest at 15:00
+//  - internal gains: a new level every 3 h, uniform in [200, 1200] W (seeded)
+//  - thermostat: zone setpoint 24 degC from 08:00 to 22:00, 26 degC at night; a PI loop sets
+//    the compressor speed in [20, 90] Hz
+//  - expansion valve: a PI loop holds 6 K of superheat, opening within [0.1, 0.8]
+//  - fans: indoor at rated flow by day, 70 % at night; outdoor following the compressor speed
+//  - optional leak: leak_g_per_h from leak_start_s on; optional truth charge
+// The day starts at 08:00 (t = 0), from the model's start-up state at the scenario's conditions.
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+
+#include "plant_models/core/ad_model.hpp"
+#include "plant_models/heat_pump/heat_pump.hpp"
+#include "tests/simulator/scenario.hpp"
+
+namespace hvac_twin::sim {
+namespace {
+
+using namespace plant::hp;
+constexpr double kDay = 86400.0;
+constexpr double kStartOfDay = 8.0 * 3600.0;
+
+class HeatPumpScenario final : public Scenario {
+ public:
+  HeatPumpScenario(const plant::HeatPumpR32& model, const ScenarioOptions& o)
+      : model_(model), o_(o), rng_(o.seed) {}
+
+  std::vector<double> initial_state() override {
+    const double charge = o_.charge_kg > 0.0 ? o_.charge_kg : model_.params().nameplate_charge;
+    return model_.initial_state(outdoor(0.0), 26.0, charge);
+  }
+
+  void drive(double t, double dt, std::span<double> x, std::span<const double> y,
+             std::span<double> u) override {
+    const auto& L = model_.slots();
+    const double clock = std::fmod(kStartOfDay + t, kDay);
+    const bool day = clock >= 8.0 * 3600.0 && clock < 22.0 * 3600.0;
+    u[kOutdoorTemperature] = outdoor(t);
+
+    const auto block = static_cast<long>(t / (3.0 * 3600.0));
+    if (block != gain_block_) {
+      gain_block_ = block;
+      gains_ = std::uniform_real_distribution<double>(200.0, 1200.0)(rng_);
+    }
+    if (L.q_int != kNone) x[L.q_int] = gains_;
+    if (L.leak != kNone) x[L.leak] = t >= o_.leak_start_s ? o_.leak_g_per_h : 0.0;
+
+    // Thermostat: PI on the zone temperature, anti-windup by integrating only when unsaturated.
+    const double error = y[kZoneAirTemperature] - (day ? 24.0 : 26.0);
+    const double speed = 45.0 + 25.0 * error + 0.02 * (speed_integral_ + error * dt);
+    const double clamped = std::clamp(speed, 20.0, 90.0);
+    if (clamped == speed) speed_integral_ += error * dt;
+    u[kCompressorSpeed] = clamped;
+    // Superheat: integral action on the opening (6 K target).
+    valve_ = std::clamp(valve_ + dt * 0.0008 * (y[kSuperheat] - 6.0), 0.1, 0.8);
+    u[kValveOpening] = valve_;
+    u[kIndoorFan] = day ? 1.0 : 0.7;
+    u[kOutdoorFan] = 0.6 + 0.4 * (clamped - 20.0) / 70.0;
+  }
+
+ private:
+  static double outdoor(double t) {
+    const double clock = std::fmod(kStartOfDay + t, kDay);
+    return 30.0 + 6.0 * std::sin(2.0 * std::numbers::pi * (clock - 9.0 * 3600.0) / kDay);
+  }
+
+  const plant::HeatPumpR32& model_;
+  ScenarioOptions o_;
+  std::mt19937_64 rng_;
+  long gain_block_ = -1;
+  double gains_ = 0.0;
+  double speed_integral_ = 0.0;
+  double valve_ = 0.35;
+};
+
+}  // namespace
+
+std::unique_ptr<Scenario> make_heat_pump_scenario(const plant::ContinuousModel& model,
+                                                  const ScenarioOptions& options) {
+  const auto* hp = dynamic_cast<const plant::AdModel<plant::HeatPumpR32>*>(&model);
+  if (hp == nullptr) throw std::invalid_argument("heat-pump scenario needs a heat_pump_r32 model");
+  return std::make_unique<HeatPumpScenario>(hp->model(), options);
+}
+
+}  // namespace hvac_twin::sim
