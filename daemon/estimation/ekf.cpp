@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "daemon/estimation/truncation.hpp"
+
 namespace hvac_twin::est {
 namespace {
 
@@ -28,7 +30,10 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
       options_(options),
       n_(model.num_states()),
       m_(model.num_outputs()),
-      integrator_(model, with_sensitivities(options.integrator)) {
+      integrator_(model, with_sensitivities(options.integrator)),
+      // Sized here, not move-assigned later: LLT(size) leaves its ComputationInfo unset, and
+      // copying that indeterminate enum is undefined behaviour (UBSan: invalid enum load).
+      llt_(static_cast<Eigen::Index>(model.num_states())) {
   if (process_noise.size() != n_)
     throw std::invalid_argument("EKF: process noise must have one entry per state");
   const auto n = static_cast<Eigen::Index>(n_), m = static_cast<Eigen::Index>(m_);
@@ -48,9 +53,80 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
     const double width = s.max - s.min;
     if (std::isfinite(width)) max_var_(i) = width * width;
   }
-  llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
   consecutive_rejections_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
+  if (options_.constrained) build_constraints();
+}
+
+void Ekf::build_constraints() {
+  const auto& layout = model_.layout();
+  const auto n = static_cast<Eigen::Index>(n_);
+  std::vector<std::pair<Eigen::VectorXd, double>> rows;
+  const auto add = [&](std::string name, Eigen::VectorXd a, double b) {
+    rows.emplace_back(std::move(a), b);
+    row_names_.push_back(std::move(name));
+  };
+  for (std::size_t i = 0; i < n_; ++i) {
+    const auto& s = layout.states[i];
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+    e(static_cast<Eigen::Index>(i)) = 1.0;
+    if (std::isfinite(s.min)) add(s.name + " >= " + std::to_string(s.min), -e, -s.min);
+    if (std::isfinite(s.max)) add(s.name + " <= " + std::to_string(s.max), e, s.max);
+  }
+  for (const auto& c : layout.constraints) {
+    if (c.over != plant::LinearConstraint::Over::kStates) continue;
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(n);
+    for (const auto& [i, coeff] : c.terms)
+      a(static_cast<Eigen::Index>(i)) += coeff;
+    add(c.name, a, c.bound);
+  }
+  static_rows_ = rows.size();
+  for (const auto& c : layout.constraints) {
+    if (c.over != plant::LinearConstraint::Over::kOutputs) continue;
+    output_rows_.push_back({c.terms, c.bound});
+    row_names_.push_back(c.name);
+  }
+  const std::size_t total = static_rows_ + output_rows_.size();
+  A_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(total), n);
+  bound_ = scale_ = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(total));
+  for (std::size_t r = 0; r < static_rows_; ++r) {
+    A_.row(static_cast<Eigen::Index>(r)) = rows[r].first.transpose();
+    bound_(static_cast<Eigen::Index>(r)) = rows[r].second;
+  }
+  for (std::size_t r = 0; r < total; ++r)
+    scale_(static_cast<Eigen::Index>(r)) =
+        1.0 + std::abs(r < static_rows_ ? rows[r].second : output_rows_[r - static_rows_].bound);
+  x_unc_ = row_ = work_ = Eigen::VectorXd::Zero(n);
+  projection_ = std::make_unique<ConstrainedProjection>(n_, total, options_.projection);
+  active_.assign(options_.projection.max_active, -1);
+}
+
+void Ekf::apply_constraints() {
+  // Output constraints, linearised at the prior: g(x) ~ g(x-) + G (x - x-) <= bound.
+  for (std::size_t k = 0; k < output_rows_.size(); ++k) {
+    const auto r = static_cast<Eigen::Index>(static_rows_ + k);
+    A_.row(r).setZero();
+    double g = 0.0;
+    for (const auto& [o, coeff] : output_rows_[k].terms) {
+      A_.row(r) += coeff * H_.row(static_cast<Eigen::Index>(o));
+      g += coeff * y_(static_cast<Eigen::Index>(o));
+    }
+    bound_(r) = output_rows_[k].bound - g + A_.row(r).dot(x_prior_);
+  }
+  x_unc_ = x_;
+  const ProjectionResult result =
+      projection_->solve(x_, P_, A_, bound_, scale_, static_rows_ + output_rows_.size());
+  if (!result.converged) ++counters_.projection_failures;
+  const auto active = projection_->active();
+  active_count_ = active.size();
+  std::copy(active.begin(), active.end(), active_.begin());
+  if (active_count_ == 0) return;
+  ++counters_.constrained_updates;
+  // The covariance: the unconstrained posterior truncated at each active constraint in turn.
+  for (const int r : active) {
+    row_ = A_.row(r).transpose();
+    truncate_gaussian(x_unc_, P_, row_, bound_(r), work_);
+  }
 }
 
 void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
@@ -121,6 +197,7 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
          std::max(z[i].variance, options_.min_measurement_variance));
     ++counters_.fused;
   }
+  if (projection_) apply_constraints();
   return finish_step();
 }
 

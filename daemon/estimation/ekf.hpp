@@ -23,8 +23,11 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include "daemon/estimation/projection.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
 
@@ -35,6 +38,12 @@ struct EkfOptions {
   int max_consecutive_rejections = 5;  // a point rejected this many times in a row is "faulty"
   double min_measurement_variance = 1e-12;
   plant::IntegratorOptions integrator;  // `sensitivities` is forced on
+  // The constrained update: after the Joseph update, the estimate is projected onto the model's
+  // constraints (state bounds, linear state constraints, output constraints linearised at the
+  // prior) by the QP of projection.hpp, and the covariance is the PDF truncation
+  // (truncation.hpp) of the unconstrained posterior at the constraints active there.
+  bool constrained = false;
+  ProjectionOptions projection;
 };
 
 // One scalar measurement offered to update().
@@ -72,6 +81,8 @@ struct EkfCounters {
   std::uint64_t predict_failures = 0;
   std::uint64_t numerical_resets = 0;
   std::uint64_t covariance_resets = 0;
+  std::uint64_t constrained_updates = 0;  // updates in which a constraint was active
+  std::uint64_t projection_failures = 0;  // QP iteration cap or infeasible constraints
 };
 
 class Ekf {
@@ -101,6 +112,13 @@ class Ekf {
   [[nodiscard]] const EkfCounters& counters() const { return counters_; }
   [[nodiscard]] const plant::Integrator& integrator() const { return integrator_; }
   [[nodiscard]] std::size_t num_states() const { return n_; }
+  // Constraint rows active after the last update (constrained mode), and their names.
+  [[nodiscard]] std::span<const int> active_constraints() const {
+    return {active_.data(), active_count_};
+  }
+  [[nodiscard]] const std::string& constraint_name(int row) const {
+    return row_names_[static_cast<std::size_t>(row)];
+  }
 
  private:
   bool healthy();
@@ -109,6 +127,8 @@ class Ekf {
   std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
                    std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
+  void build_constraints();
+  void apply_constraints();
 
   const plant::ContinuousModel& model_;
   EkfOptions options_;
@@ -126,6 +146,21 @@ class Ekf {
   std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
   int lost_updates_ = 0;                     // consecutive updates with most points gated out
   std::vector<double> x_buf_;                // contiguous scratch for the integrator
+
+  // Constrained mode: rows [0, static_rows_) from the state bounds and state constraints, then
+  // one row per output constraint, refilled each update.
+  struct OutputRow {
+    std::vector<std::pair<std::size_t, double>> terms;
+    double bound = 0.0;
+  };
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd bound_, scale_, x_unc_, row_, work_;
+  std::size_t static_rows_ = 0;
+  std::vector<OutputRow> output_rows_;
+  std::vector<std::string> row_names_;
+  std::unique_ptr<ConstrainedProjection> projection_;
+  std::vector<int> active_;
+  std::size_t active_count_ = 0;
   EkfCounters counters_;
 };
 

@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace hvac_twin::plant {
@@ -52,10 +53,22 @@ struct SignalInfo {
   std::string description;
 };
 
+// A physical constraint  sum_k coeff_k v_k <= bound,  over states (linear in the state, exact)
+// or over outputs (nonlinear in the state; the constrained update linearises it at the prior).
+// Each state's [min, max] is a constraint as well and is not repeated here.
+struct LinearConstraint {
+  enum class Over : unsigned char { kStates, kOutputs };
+  std::string name;
+  Over over = Over::kStates;
+  std::vector<std::pair<std::size_t, double>> terms;  // (index, coefficient)
+  double bound = 0.0;
+};
+
 struct ModelLayout {
   std::vector<StateInfo> states;
   std::vector<SignalInfo> inputs;   // u: actuators and known disturbances, held over a period
   std::vector<SignalInfo> outputs;  // y = h(x, u): what sensors can measure
+  std::vector<LinearConstraint> constraints;  // beyond the state bounds
 
   [[nodiscard]] static std::optional<std::size_t> find(const auto& list, std::string_view name) {
     for (std::size_t i = 0; i < list.size(); ++i)

@@ -192,11 +192,12 @@ ModelLayout HeatPumpR32::make_layout() const {
     l.states[i] = StateInfo{std::move(name), unit,           lo, hi, x0[i], std0, q, abs_tol,
                             augmented,       std::move(desc)};
   };
-  // Enthalpy bounds: the property table's range (liquid at -73 degC to vapour at 160 degC).
-  const double h_lo = 60.0, h_hi = 720.0;
-  set(L_.charge, "charge", "kg", 0.0, 2.0 * p_.nameplate_charge, 0.05, 1e-6, 1e-9, false,
+  // Enthalpy bounds: subcooled liquid at about -50 degC to vapour at about 160 degC, inside
+  // the property table at every operating pressure.
+  const double h_lo = 100.0, h_hi = 680.0;
+  set(L_.charge, "charge", "kg", 0.0, p_.nameplate_charge, 0.05, 1e-6, 1e-9, false,
       "total refrigerant mass in the circuit");
-  set(L_.m_cond, "M_cond", "kg", 0.0, 2.0 * p_.nameplate_charge, 0.05, 1e-4, 1e-9, false,
+  set(L_.m_cond, "M_cond", "kg", 0.0, p_.nameplate_charge, 0.05, 1e-4, 1e-9, false,
       "refrigerant mass on the high side: discharge line, condenser, liquid line");
   for (std::size_t k = 0; k < N; ++k) {
     set(L_.h_cond[k], indexed("h_cond_", k), "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-5, false,
@@ -224,6 +225,25 @@ ModelLayout HeatPumpR32::make_layout() const {
   if (L_.fouling != hp::kNone)
     set(L_.fouling, "fouling", "1", 0.2, 1.5, 0.05, 1e-5, 1e-9, true,
         "outdoor-coil air-side UA factor, 1 = clean (random walk)");
+
+  // Beyond the bounds: each side keeps some refrigerant (a side without refrigerant has no
+  // pressure), and the condenser stays above the evaporator with the pressures in operating
+  // range (outputs: linearised by the constrained update).
+  using C = LinearConstraint;
+  const double m_min = 0.05 * p_.nameplate_charge;
+  l.constraints = {
+      C{"high side holds refrigerant", C::Over::kStates, {{L_.m_cond, -1.0}}, -m_min},
+      C{"low side holds refrigerant",
+        C::Over::kStates,
+        {{L_.m_cond, 1.0}, {L_.charge, -1.0}},
+        -m_min},
+      C{"condenser above evaporator",
+        C::Over::kOutputs,
+        {{hp::kSuctionPressure, 1.0}, {hp::kDischargePressure, -1.0}},
+        -50e3},
+      C{"suction pressure in range", C::Over::kOutputs, {{hp::kSuctionPressure, -1.0}}, -0.15e6},
+      C{"discharge pressure in range", C::Over::kOutputs, {{hp::kDischargePressure, 1.0}}, 5.2e6},
+  };
 
   l.inputs.resize(hp::kNumInputs);
   l.inputs[hp::kCompressorSpeed] = {"compressor_speed", "Hz", 0.0, 150.0, kRequired,
