@@ -59,63 +59,19 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
 }
 
 void Ekf::build_constraints() {
-  const auto& layout = model_.layout();
-  const auto n = static_cast<Eigen::Index>(n_);
-  std::vector<std::pair<Eigen::VectorXd, double>> rows;
-  const auto add = [&](std::string name, Eigen::VectorXd a, double b) {
-    rows.emplace_back(std::move(a), b);
-    row_names_.push_back(std::move(name));
-  };
-  for (std::size_t i = 0; i < n_; ++i) {
-    const auto& s = layout.states[i];
-    Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
-    e(static_cast<Eigen::Index>(i)) = 1.0;
-    if (std::isfinite(s.min)) add(s.name + " >= " + std::to_string(s.min), -e, -s.min);
-    if (std::isfinite(s.max)) add(s.name + " <= " + std::to_string(s.max), e, s.max);
-  }
-  for (const auto& c : layout.constraints) {
-    if (c.over != plant::LinearConstraint::Over::kStates) continue;
-    Eigen::VectorXd a = Eigen::VectorXd::Zero(n);
-    for (const auto& [i, coeff] : c.terms)
-      a(static_cast<Eigen::Index>(i)) += coeff;
-    add(c.name, a, c.bound);
-  }
-  static_rows_ = rows.size();
-  for (const auto& c : layout.constraints) {
-    if (c.over != plant::LinearConstraint::Over::kOutputs) continue;
-    output_rows_.push_back({c.terms, c.bound});
-    row_names_.push_back(c.name);
-  }
-  const std::size_t total = static_rows_ + output_rows_.size();
-  A_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(total), n);
-  bound_ = scale_ = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(total));
-  for (std::size_t r = 0; r < static_rows_; ++r) {
-    A_.row(static_cast<Eigen::Index>(r)) = rows[r].first.transpose();
-    bound_(static_cast<Eigen::Index>(r)) = rows[r].second;
-  }
-  for (std::size_t r = 0; r < total; ++r)
-    scale_(static_cast<Eigen::Index>(r)) =
-        1.0 + std::abs(r < static_rows_ ? rows[r].second : output_rows_[r - static_rows_].bound);
-  x_unc_ = row_ = work_ = Eigen::VectorXd::Zero(n);
-  projection_ = std::make_unique<ConstrainedProjection>(n_, total, options_.projection);
+  constraints_ = std::make_unique<ConstraintSet>(model_.layout());
+  x_unc_ = row_ = work_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n_));
+  projection_ =
+      std::make_unique<ConstrainedProjection>(n_, constraints_->rows(), options_.projection);
   active_.assign(options_.projection.max_active, -1);
 }
 
 void Ekf::apply_constraints() {
   // Output constraints, linearised at the prior: g(x) ~ g(x-) + G (x - x-) <= bound.
-  for (std::size_t k = 0; k < output_rows_.size(); ++k) {
-    const auto r = static_cast<Eigen::Index>(static_rows_ + k);
-    A_.row(r).setZero();
-    double g = 0.0;
-    for (const auto& [o, coeff] : output_rows_[k].terms) {
-      A_.row(r) += coeff * H_.row(static_cast<Eigen::Index>(o));
-      g += coeff * y_(static_cast<Eigen::Index>(o));
-    }
-    bound_(r) = output_rows_[k].bound - g + A_.row(r).dot(x_prior_);
-  }
+  constraints_->linearise_outputs(x_prior_, y_, H_);
   x_unc_ = x_;
-  const ProjectionResult result =
-      projection_->solve(x_, P_, A_, bound_, scale_, static_rows_ + output_rows_.size());
+  const ConstraintSet& c = *constraints_;
+  const ProjectionResult result = projection_->solve(x_, P_, c.A(), c.b(), c.scale(), c.rows());
   if (!result.converged) ++counters_.projection_failures;
   const auto active = projection_->active();
   active_count_ = active.size();
@@ -124,8 +80,8 @@ void Ekf::apply_constraints() {
   ++counters_.constrained_updates;
   // The covariance: the unconstrained posterior truncated at each active constraint in turn.
   for (const int r : active) {
-    row_ = A_.row(r).transpose();
-    truncate_gaussian(x_unc_, P_, row_, bound_(r), work_);
+    row_ = c.A().row(r).transpose();
+    truncate_gaussian(x_unc_, P_, row_, c.b()(r), work_);
   }
 }
 

@@ -27,6 +27,8 @@
 #include <utility>
 #include <vector>
 
+#include "daemon/estimation/constraint_set.hpp"
+#include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/projection.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
@@ -46,46 +48,9 @@ struct EkfOptions {
   ProjectionOptions projection;
 };
 
-// One scalar measurement offered to update().
-struct Measurement {
-  std::size_t output = 0;  // index of the model output it measures
-  double value = 0.0;      // [output unit]
-  double variance = 0.0;   // R [output unit²]
-  bool available = false;  // GOOD quality and finite value; otherwise it is only reported
-};
+using EkfCounters = EstimatorCounters;
 
-// What happened to one measurement in update(); published per point.
-struct MeasurementReport {
-  double predicted = 0.0;            // h(x⁻)
-  double innovation = 0.0;           // z - h(x⁻)
-  double innovation_variance = 0.0;  // H P⁻ Hᵀ + R
-  double test_ratio = 0.0;           // ν² / S
-  bool available = false;
-  bool fused = false;
-  bool rejected = false;  // failed the gate
-  bool faulty = false;    // rejected max_consecutive_rejections times in a row
-};
-
-enum class StepStatus : std::uint8_t {
-  kOk,
-  kModelError,      // the integrator or the output function failed: predict keeps x and
-                    // inflates P by Q_c dt; update fuses nothing
-  kNumericalReset,  // health check failed; last good (x, P) restored
-};
-
-struct EkfCounters {
-  std::uint64_t predicts = 0;
-  std::uint64_t updates = 0;
-  std::uint64_t fused = 0;
-  std::uint64_t gate_rejections = 0;
-  std::uint64_t predict_failures = 0;
-  std::uint64_t numerical_resets = 0;
-  std::uint64_t covariance_resets = 0;
-  std::uint64_t constrained_updates = 0;  // updates in which a constraint was active
-  std::uint64_t projection_failures = 0;  // QP iteration cap or infeasible constraints
-};
-
-class Ekf {
+class Ekf final : public Estimator {
  public:
   // process_noise: random-walk intensity per state [unit/√s]; max_measurements: most measurements
   // one update() will be offered. Throws std::invalid_argument on size mismatch.
@@ -93,31 +58,32 @@ class Ekf {
       std::size_t max_measurements, const EkfOptions& options);
 
   // Sets x and P = diag(std0²), and makes them the last good state.
-  void reset(std::span<const double> x0, std::span<const double> std0);
+  void reset(std::span<const double> x0, std::span<const double> std0) override;
 
-  StepStatus predict(std::span<const double> u, double dt);
+  StepStatus predict(std::span<const double> u, double dt) override;
 
   // Tests and fuses `z` (at most max_measurements), writing one report per measurement. Slot i
   // of `z` must be the same sensor every cycle: consecutive rejections are counted per slot.
   StepStatus update(std::span<const Measurement> z, std::span<const double> u,
-                    std::span<MeasurementReport> reports);
+                    std::span<MeasurementReport> reports) override;
 
   // Every model output at the current estimate with its standard deviation from the delta
   // method, σ² = H P Hᵀ.
-  int output_estimates(std::span<const double> u, std::span<double> y, std::span<double> sigma);
+  int output_estimates(std::span<const double> u, std::span<double> y,
+                       std::span<double> sigma) override;
 
-  [[nodiscard]] const Eigen::VectorXd& state() const { return x_; }
-  [[nodiscard]] const Eigen::MatrixXd& covariance() const { return P_; }
+  [[nodiscard]] const Eigen::VectorXd& state() const override { return x_; }
+  [[nodiscard]] const Eigen::MatrixXd& covariance() const override { return P_; }
   [[nodiscard]] const Eigen::MatrixXd& transition() const { return F_; }  // F of the last predict
-  [[nodiscard]] const EkfCounters& counters() const { return counters_; }
+  [[nodiscard]] const EkfCounters& counters() const override { return counters_; }
   [[nodiscard]] const plant::Integrator& integrator() const { return integrator_; }
-  [[nodiscard]] std::size_t num_states() const { return n_; }
+  [[nodiscard]] std::size_t num_states() const override { return n_; }
   // Constraint rows active after the last update (constrained mode), and their names.
-  [[nodiscard]] std::span<const int> active_constraints() const {
+  [[nodiscard]] std::span<const int> active_constraints() const override {
     return {active_.data(), active_count_};
   }
-  [[nodiscard]] const std::string& constraint_name(int row) const {
-    return row_names_[static_cast<std::size_t>(row)];
+  [[nodiscard]] const std::string& constraint_name(int row) const override {
+    return constraints_->name(row);
   }
 
  private:
@@ -147,17 +113,9 @@ class Ekf {
   int lost_updates_ = 0;                     // consecutive updates with most points gated out
   std::vector<double> x_buf_;                // contiguous scratch for the integrator
 
-  // Constrained mode: rows [0, static_rows_) from the state bounds and state constraints, then
-  // one row per output constraint, refilled each update.
-  struct OutputRow {
-    std::vector<std::pair<std::size_t, double>> terms;
-    double bound = 0.0;
-  };
-  Eigen::MatrixXd A_;
-  Eigen::VectorXd bound_, scale_, x_unc_, row_, work_;
-  std::size_t static_rows_ = 0;
-  std::vector<OutputRow> output_rows_;
-  std::vector<std::string> row_names_;
+  // Constrained mode.
+  std::unique_ptr<ConstraintSet> constraints_;
+  Eigen::VectorXd x_unc_, row_, work_;
   std::unique_ptr<ConstrainedProjection> projection_;
   std::vector<int> active_;
   std::size_t active_count_ = 0;

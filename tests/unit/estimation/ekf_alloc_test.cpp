@@ -108,3 +108,40 @@ TEST_CASE("a constrained EKF cycle on the heat pump makes no heap allocation", "
   CHECK(g_allocations.load() == 0);
   CHECK(ekf.counters().fused >= 5);
 }
+
+#include "daemon/estimation/enkf.hpp"
+
+TEST_CASE("a constrained EnKF cycle on the heat pump, on two threads, makes no heap allocation",
+          "[enkf][alloc]") {
+  const auto model = plant::create_model("heat_pump_r32", {});
+  const auto& L = model->layout();
+  std::vector<double> q, s0, x0;
+  for (const auto& s : L.states) {
+    q.push_back(s.process_noise);
+    s0.push_back(0.05 * s.initial_std);
+    x0.push_back(s.initial);
+  }
+  est::EnkfOptions options;
+  options.members = 16;
+  options.threads = 2;
+  est::ConstrainedEnkf enkf(*model, q, 2, options);
+  enkf.reset(x0, s0);
+  const std::vector<double> u{50.0, 0.355, 1.0, 1.0, 35.0};
+  std::vector<double> y(model->num_outputs()), sigma(model->num_outputs());
+  REQUIRE(model->outputs(x0, u, y) == plant::kModelOk);
+  std::vector<est::Measurement> z{
+      {.output = 0, .value = y[0] + 8e3, .variance = 25e6, .available = true},
+      {.output = 1, .value = y[1] - 2e4, .variance = 225e6, .available = true}};
+  std::vector<est::MeasurementReport> reps(2);
+  REQUIRE(enkf.predict(u, 2.0) == est::StepStatus::kOk);  // warm-up
+  g_allocations = 0;
+  g_counting = true;
+  for (int k = 0; k < 3; ++k) {
+    enkf.predict(u, 2.0);
+    enkf.update(z, u, reps);
+    enkf.output_estimates(u, y, sigma);
+  }
+  g_counting = false;
+  CHECK(g_allocations.load() == 0);
+  CHECK(enkf.counters().fused >= 3);
+}

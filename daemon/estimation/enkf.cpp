@@ -1,0 +1,310 @@
+#include "daemon/estimation/enkf.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace hvac_twin::est {
+
+struct ConstrainedEnkf::Worker {
+  std::unique_ptr<plant::ContinuousModel> model;
+  std::unique_ptr<plant::Integrator> integrator;
+  std::unique_ptr<ConstrainedProjection> projection;
+  std::vector<double> x, y;
+  Eigen::VectorXd xe;
+  std::vector<int> active;  // rows active for this worker's members in the last constrain()
+  std::size_t active_count = 0;
+};
+
+namespace {
+
+plant::IntegratorOptions without_sensitivities(plant::IntegratorOptions o) {
+  o.sensitivities = false;
+  return o;
+}
+
+}  // namespace
+
+ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
+                                 std::span<const double> process_noise,
+                                 std::size_t max_measurements, const EnkfOptions& options)
+    : model_(model),
+      options_(options),
+      n_(model.num_states()),
+      m_(model.num_outputs()),
+      N_(options.members),
+      pool_(options.threads),
+      constraints_(model.layout()) {
+  if (process_noise.size() != n_)
+    throw std::invalid_argument("EnKF: process noise must have one entry per state");
+  if (N_ < 4) throw std::invalid_argument("EnKF: at least 4 members");
+  const auto n = static_cast<Eigen::Index>(n_), N = static_cast<Eigen::Index>(N_);
+  q_ = Eigen::VectorXd(n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    q_(i) = process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
+  for (std::size_t w = 0; w < pool_.size(); ++w) {
+    auto worker = std::make_unique<Worker>();
+    worker->model = model.clone();
+    worker->integrator = std::make_unique<plant::Integrator>(
+        *worker->model, without_sensitivities(options.integrator));
+    worker->projection =
+        std::make_unique<ConstrainedProjection>(n_, constraints_.rows(), options.projection);
+    worker->x.assign(n_, 0.0);
+    worker->y.assign(m_, 0.0);
+    worker->xe = Eigen::VectorXd::Zero(n);
+    worker->active.assign(options.projection.max_active + constraints_.rows(), -1);
+    workers_.push_back(std::move(worker));
+  }
+  for (std::size_t i = 0; i < N_; ++i)
+    rng_.emplace_back(options.seed * 1000003ULL + i);
+  gauss_.assign(N_, std::normal_distribution<double>(0.0, 1.0));
+  X_ = anomalies_ = Eigen::MatrixXd::Zero(n, N);
+  mean_ = Eigen::VectorXd::Zero(n);
+  P_ = metric_ = Eigen::MatrixXd::Zero(n, n);
+  Y_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(m_), N);
+  ok_.assign(N_, 1);
+  const auto f = static_cast<Eigen::Index>(std::max<std::size_t>(max_measurements, 1));
+  Ya_ = D_ = Eigen::MatrixXd::Zero(f, N);
+  Pxy_ = K_ = Eigen::MatrixXd::Zero(n, f);
+  Kt_ = Eigen::MatrixXd::Zero(f, n);
+  Pyy_ = Eigen::MatrixXd::Zero(f, f);
+  llt_ = Eigen::LLT<Eigen::MatrixXd>(f);
+  ymean_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m_));
+  fused_.assign(static_cast<std::size_t>(f), 0);
+  consecutive_rejections_.assign(max_measurements, 0);
+  active_.assign(constraints_.rows(), -1);
+}
+
+ConstrainedEnkf::~ConstrainedEnkf() = default;
+
+void ConstrainedEnkf::statistics() {
+  mean_ = X_.rowwise().mean();
+  anomalies_ = X_.colwise() - mean_;
+  P_.noalias() = anomalies_ * anomalies_.transpose();
+  P_ /= static_cast<double>(N_ - 1);
+}
+
+void ConstrainedEnkf::reset(std::span<const double> x0, std::span<const double> std0) {
+  for (std::size_t i = 0; i < N_; ++i)
+    for (std::size_t j = 0; j < n_; ++j)
+      X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = x0[j] + std0[j] * normal(i);
+  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  statistics();
+  if (options_.constrained) constrain({});
+  statistics();
+}
+
+StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {
+  ++counters_.predicts;
+  auto task = [&](std::size_t w, std::size_t b, std::size_t e) {
+    Worker& W = *workers_[w];
+    for (std::size_t i = b; i < e; ++i) {
+      const auto I = static_cast<Eigen::Index>(i);
+      for (std::size_t j = 0; j < n_; ++j)
+        W.x[j] = X_(static_cast<Eigen::Index>(j), I);
+      ok_[i] = W.integrator->step(W.x, u, dt, {}).ok() ? 1 : 0;
+      if (!ok_[i]) continue;
+      for (std::size_t j = 0; j < n_; ++j) {
+        const auto J = static_cast<Eigen::Index>(j);
+        X_(J, I) = W.x[j] + std::sqrt(q_(J) * dt) * normal(i);
+      }
+    }
+  };
+  pool_.run(N_, task);
+  // A member that failed is replaced by a copy of the next one that did not.
+  std::size_t failed = 0;
+  for (std::size_t i = 0; i < N_; ++i) {
+    if (ok_[i]) continue;
+    ++failed;
+    for (std::size_t k = 1; k < N_; ++k) {
+      const std::size_t src = (i + k) % N_;
+      if (ok_[src]) {
+        X_.col(static_cast<Eigen::Index>(i)) = X_.col(static_cast<Eigen::Index>(src));
+        break;
+      }
+    }
+  }
+  counters_.predict_failures += failed;
+  if (failed == N_) return StepStatus::kModelError;
+  statistics();
+  X_ = (anomalies_ * options_.inflation).colwise() + mean_;
+  statistics();
+  return X_.allFinite() ? StepStatus::kOk : StepStatus::kModelError;
+}
+
+bool ConstrainedEnkf::evaluate_outputs(std::span<const double> u) {
+  auto task = [&](std::size_t w, std::size_t b, std::size_t e) {
+    Worker& W = *workers_[w];
+    for (std::size_t i = b; i < e; ++i) {
+      const auto I = static_cast<Eigen::Index>(i);
+      for (std::size_t j = 0; j < n_; ++j)
+        W.x[j] = X_(static_cast<Eigen::Index>(j), I);
+      ok_[i] = W.model->outputs(W.x, u, W.y) == plant::kModelOk ? 1 : 0;
+      for (std::size_t o = 0; o < m_; ++o)
+        Y_(static_cast<Eigen::Index>(o), I) = W.y[o];
+    }
+  };
+  pool_.run(N_, task);
+  return std::all_of(ok_.begin(), ok_.end(), [](char c) { return c != 0; });
+}
+
+StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<const double> u,
+                                   std::span<MeasurementReport> reports) {
+  ++counters_.updates;
+  active_count_ = 0;
+  const std::size_t count =
+      std::min({z.size(), reports.size(), consecutive_rejections_.size(), fused_.size()});
+  for (std::size_t i = 0; i < count; ++i)
+    reports[i] = MeasurementReport{};
+  if (!evaluate_outputs(u)) return StepStatus::kModelError;
+  ymean_ = Y_.rowwise().mean();
+  const double inv = 1.0 / static_cast<double>(N_ - 1);
+
+  // Gate every available measurement against the ensemble.
+  std::size_t f = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Measurement& mz = z[i];
+    MeasurementReport& rep = reports[i];
+    rep.available =
+        mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
+    if (!rep.available) continue;
+    const auto o = static_cast<Eigen::Index>(mz.output);
+    const double r = std::max(mz.variance, options_.min_measurement_variance);
+    const double var = (Y_.row(o).array() - ymean_(o)).square().sum() * inv;
+    rep.predicted = ymean_(o);
+    rep.innovation = mz.value - ymean_(o);
+    rep.innovation_variance = var + r;
+    rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
+    if (!(rep.test_ratio <= options_.nis_gate)) {
+      rep.rejected = true;
+      ++counters_.gate_rejections;
+      ++consecutive_rejections_[i];
+    } else {
+      rep.fused = true;
+      consecutive_rejections_[i] = 0;
+      fused_[f++] = i;
+    }
+    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+  }
+
+  if (f > 0) {
+    // Padded to the workspace size: unused slots are identity rows with zero innovations, so
+    // the factorisation never changes size (and never allocates).
+    const auto F = Ya_.rows();
+    Ya_.setZero();
+    D_.setZero();
+    Pyy_.setZero();
+    for (std::size_t k = 0; k < f; ++k) {
+      const Measurement& mz = z[fused_[k]];
+      const auto K = static_cast<Eigen::Index>(k), o = static_cast<Eigen::Index>(mz.output);
+      const double sd = std::sqrt(std::max(mz.variance, options_.min_measurement_variance));
+      Ya_.row(K) = Y_.row(o).array() - ymean_(o);
+      for (std::size_t i = 0; i < N_; ++i) {
+        const auto I = static_cast<Eigen::Index>(i);
+        D_(K, I) = mz.value + sd * normal(i) - Y_(o, I);
+      }
+    }
+    Pyy_.noalias() = Ya_ * Ya_.transpose();
+    Pyy_ *= inv;
+    for (std::size_t k = 0; k < f; ++k)
+      Pyy_(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)) +=
+          std::max(z[fused_[k]].variance, options_.min_measurement_variance);
+    for (auto k = static_cast<Eigen::Index>(f); k < F; ++k)
+      Pyy_(k, k) = 1.0;
+    Pxy_.noalias() = anomalies_ * Ya_.transpose();
+    Pxy_ *= inv;
+    llt_.compute(Pyy_);
+    if (llt_.info() != Eigen::Success) return StepStatus::kNumericalReset;
+    Kt_ = Pxy_.transpose();  // K = Pxy Pyy^-1, i.e. K' = Pyy^-1 Pxy'
+    llt_.solveInPlace(Kt_);
+    K_ = Kt_.transpose();
+    X_.noalias() += K_ * D_;
+    counters_.fused += f;
+  }
+  statistics();
+  if (options_.constrained) constrain(u);
+  statistics();
+  if (!X_.allFinite()) return StepStatus::kNumericalReset;
+  return StepStatus::kOk;
+}
+
+void ConstrainedEnkf::constrain(std::span<const double> u) {
+  active_count_ = 0;
+  // State constraints: each member projected in the metric diag(P).
+  metric_.setZero();
+  for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(n_); ++i)
+    metric_(i, i) = std::max(P_(i, i), 1e-12 * (1.0 + mean_(i) * mean_(i)));
+  auto project = [&](std::size_t w, std::size_t b, std::size_t e) {
+    Worker& W = *workers_[w];
+    W.active_count = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      W.xe = X_.col(static_cast<Eigen::Index>(i));
+      W.projection->solve(W.xe, metric_, constraints_.A(), constraints_.b(), constraints_.scale(),
+                          constraints_.static_rows());
+      X_.col(static_cast<Eigen::Index>(i)) = W.xe;
+      for (const int row : W.projection->active()) {
+        const bool known =
+            std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
+                      row) != W.active.begin() + static_cast<long>(W.active_count);
+        if (!known && W.active_count < W.active.size()) W.active[W.active_count++] = row;
+      }
+    }
+  };
+  pool_.run(N_, project);
+
+  // Output constraints: a violating member is drawn towards the ensemble mean.
+  if (constraints_.has_output_rows() && !u.empty()) {
+    statistics();
+    auto shrink = [&](std::size_t w, std::size_t b, std::size_t e) {
+      Worker& W = *workers_[w];
+      for (std::size_t i = b; i < e; ++i) {
+        const auto I = static_cast<Eigen::Index>(i);
+        double alpha = 1.0;
+        int violated = -1;
+        for (int k = 0; k < 10; ++k, alpha *= 0.5) {
+          for (std::size_t j = 0; j < n_; ++j) {
+            const auto J = static_cast<Eigen::Index>(j);
+            W.x[j] = mean_(J) + alpha * (X_(J, I) - mean_(J));
+          }
+          if (W.model->outputs(W.x, u, W.y) != plant::kModelOk) continue;
+          int row = -1;
+          if (constraints_.output_violation(W.y, &row) <= 0.0) break;
+          if (violated < 0) violated = row;
+        }
+        for (std::size_t j = 0; j < n_; ++j)
+          X_(static_cast<Eigen::Index>(j), I) = W.x[j];
+        const bool known =
+            std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
+                      violated) != W.active.begin() + static_cast<long>(W.active_count);
+        if (violated >= 0 && !known && W.active_count < W.active.size())
+          W.active[W.active_count++] = violated;
+      }
+    };
+    pool_.run(N_, shrink);
+  }
+  for (const auto& W : workers_)
+    for (std::size_t k = 0; k < W->active_count; ++k) {
+      const int row = W->active[k];
+      if (std::find(active_.begin(), active_.begin() + static_cast<long>(active_count_), row) ==
+          active_.begin() + static_cast<long>(active_count_))
+        active_[active_count_++] = row;
+    }
+
+  if (active_count_ > 0) ++counters_.constrained_updates;
+}
+
+int ConstrainedEnkf::output_estimates(std::span<const double> u, std::span<double> y,
+                                      std::span<double> sigma) {
+  if (!evaluate_outputs(u)) return plant::kModelRecoverable;
+  const double inv = 1.0 / static_cast<double>(N_ - 1);
+  for (std::size_t o = 0; o < m_ && o < y.size(); ++o) {
+    const auto O = static_cast<Eigen::Index>(o);
+    const double mean = Y_.row(O).mean();
+    y[o] = mean;
+    if (o < sigma.size()) sigma[o] = std::sqrt((Y_.row(O).array() - mean).square().sum() * inv);
+  }
+  return plant::kModelOk;
+}
+
+}  // namespace hvac_twin::est

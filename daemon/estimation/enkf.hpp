@@ -1,0 +1,112 @@
+// Constrained ensemble Kalman filter (stochastic EnKF with perturbed observations), the
+// alternative to the EKF for large models: members are integrated without Jacobians, spread
+// over a pool of worker threads, each worker with its own model clone and integrator.
+//
+// Predict: every member integrated over dt with the inputs held, plus process noise
+// N(0, Q_c dt); then multiplicative inflation of the anomalies. A member whose integration
+// fails is replaced by a copy of another member (counted as a predict failure).
+// Update: each available measurement is gated against the ensemble (innovation z - mean h,
+// S = ensemble variance of h + R); the accepted ones update every member with the ensemble
+// gain K = P_xh (P_hh + R)^-1 and its own perturbed observation. Constrained: each member is then
+// projected onto the state constraints (bounds and linear state constraints) by the QP of
+// projection.hpp in the metric diag(P) (the ensemble covariance itself is singular when there
+// are fewer members than states), and a member that violates an output constraint is drawn
+// towards the ensemble mean until it satisfies it.
+// Estimates: mean and covariance of the ensemble; outputs' mean and standard deviation over the
+// members.
+//
+// Every random draw comes from the member's own generator (seeded from `seed` and the member
+// index), so a run does not depend on how members are spread over threads. Construction
+// allocates; nothing after it does.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "daemon/estimation/constraint_set.hpp"
+#include "daemon/estimation/estimator.hpp"
+#include "daemon/estimation/projection.hpp"
+#include "daemon/estimation/worker_pool.hpp"
+#include "plant_models/core/integrator.hpp"
+#include "plant_models/core/model.hpp"
+
+namespace hvac_twin::est {
+
+struct EnkfOptions {
+  std::size_t members = 32;
+  std::size_t threads = 2;  // workers, the calling thread included
+  double inflation = 1.02;  // multiplies the anomalies at each predict
+  double nis_gate = 10.83;
+  int max_consecutive_rejections = 5;
+  double min_measurement_variance = 1e-12;
+  bool constrained = true;
+  std::uint64_t seed = 1;
+  plant::IntegratorOptions integrator;  // `sensitivities` is forced off
+  ProjectionOptions projection;
+};
+
+class ConstrainedEnkf final : public Estimator {
+ public:
+  ConstrainedEnkf(const plant::ContinuousModel& model, std::span<const double> process_noise,
+                  std::size_t max_measurements, const EnkfOptions& options);
+  ~ConstrainedEnkf() override;
+
+  void reset(std::span<const double> x0, std::span<const double> std0) override;
+  StepStatus predict(std::span<const double> u, double dt) override;
+  StepStatus update(std::span<const Measurement> z, std::span<const double> u,
+                    std::span<MeasurementReport> reports) override;
+  int output_estimates(std::span<const double> u, std::span<double> y,
+                       std::span<double> sigma) override;
+
+  [[nodiscard]] const Eigen::VectorXd& state() const override { return mean_; }
+  [[nodiscard]] const Eigen::MatrixXd& covariance() const override { return P_; }
+  [[nodiscard]] const EstimatorCounters& counters() const override { return counters_; }
+  [[nodiscard]] std::size_t num_states() const override { return n_; }
+  [[nodiscard]] std::span<const int> active_constraints() const override {
+    return {active_.data(), active_count_};
+  }
+  [[nodiscard]] const std::string& constraint_name(int row) const override {
+    return constraints_.name(row);
+  }
+  [[nodiscard]] const Eigen::MatrixXd& members() const { return X_; }
+
+ private:
+  struct Worker;
+  void statistics();                                 // mean_, anomalies_, P_ from X_
+  bool evaluate_outputs(std::span<const double> u);  // Y_ = h(X_); false if a member failed
+  void constrain(std::span<const double> u);         // u empty: state constraints only
+  double normal(std::size_t member) { return gauss_[member](rng_[member]); }
+
+  const plant::ContinuousModel& model_;
+  EnkfOptions options_;
+  std::size_t n_, m_, N_;
+  Eigen::VectorXd q_;  // process-noise intensities (variance per second)
+  WorkerPool pool_;
+  std::vector<std::unique_ptr<Worker>> workers_;
+  std::vector<std::mt19937_64> rng_;
+  std::vector<std::normal_distribution<double>> gauss_;  // per member: no shared state
+
+  Eigen::MatrixXd X_;          // n x N members
+  Eigen::MatrixXd anomalies_;  // n x N
+  Eigen::VectorXd mean_;
+  Eigen::MatrixXd P_;
+  Eigen::MatrixXd Y_;     // m x N: every output of every member
+  std::vector<char> ok_;  // per member: last evaluation succeeded
+  // Update workspace (f = measurements fused this update, at most max_measurements).
+  Eigen::MatrixXd Ya_, D_, Pxy_, Pyy_, K_, Kt_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::VectorXd ymean_;
+  std::vector<std::size_t> fused_;
+  std::vector<int> consecutive_rejections_;
+  // Constraints.
+  ConstraintSet constraints_;
+  Eigen::MatrixXd metric_;  // diag(P) as a dense matrix for the projection
+  std::vector<int> active_;
+  std::size_t active_count_ = 0;
+  EstimatorCounters counters_;
+};
+
+}  // namespace hvac_twin::est

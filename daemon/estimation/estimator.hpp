@@ -1,0 +1,80 @@
+// What the runtime needs of an estimator, whichever it is: the (constrained) EKF or the
+// constrained ensemble Kalman filter. Selected by the configuration (estimator.type).
+//
+// Pure library: time is passed in. After construction no call allocates or throws. One thread
+// drives an instance (the EnKF fans its members out to its own workers internally).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace hvac_twin::est {
+
+// One scalar measurement offered to update().
+struct Measurement {
+  std::size_t output = 0;  // index of the model output it measures
+  double value = 0.0;      // [output unit]
+  double variance = 0.0;   // R [output unit²]
+  bool available = false;  // GOOD quality and finite value; otherwise it is only reported
+};
+
+// What happened to one measurement in update(); published per point.
+struct MeasurementReport {
+  double predicted = 0.0;            // h(x⁻) (the ensemble mean of h for the EnKF)
+  double innovation = 0.0;           // z - predicted
+  double innovation_variance = 0.0;  // S = H P⁻ Hᵀ + R (ensemble variance of h + R)
+  double test_ratio = 0.0;           // ν² / S
+  bool available = false;
+  bool fused = false;
+  bool rejected = false;  // failed the gate
+  bool faulty = false;    // rejected max_consecutive_rejections times in a row
+};
+
+enum class StepStatus : std::uint8_t {
+  kOk,
+  kModelError,      // the model failed (predict: x kept, P inflated; update: nothing fused)
+  kNumericalReset,  // health check failed; last good state restored
+};
+
+struct EstimatorCounters {
+  std::uint64_t predicts = 0;
+  std::uint64_t updates = 0;
+  std::uint64_t fused = 0;
+  std::uint64_t gate_rejections = 0;
+  std::uint64_t predict_failures = 0;  // EnKF: members whose integration failed
+  std::uint64_t numerical_resets = 0;
+  std::uint64_t covariance_resets = 0;
+  std::uint64_t constrained_updates = 0;  // updates in which a constraint was active
+  std::uint64_t projection_failures = 0;  // QP iteration cap or infeasible constraints
+};
+
+class Estimator {
+ public:
+  virtual ~Estimator() = default;
+  Estimator() = default;
+  Estimator(const Estimator&) = delete;
+  Estimator& operator=(const Estimator&) = delete;
+
+  // Sets the state and P = diag(std0²) (the EnKF draws its members from that Gaussian).
+  virtual void reset(std::span<const double> x0, std::span<const double> std0) = 0;
+  virtual StepStatus predict(std::span<const double> u, double dt) = 0;
+  // Tests and fuses z, one report per measurement; slot i of z is the same sensor every cycle.
+  virtual StepStatus update(std::span<const Measurement> z, std::span<const double> u,
+                            std::span<MeasurementReport> reports) = 0;
+  // Every model output at the estimate with its standard deviation.
+  virtual int output_estimates(std::span<const double> u, std::span<double> y,
+                               std::span<double> sigma) = 0;
+
+  [[nodiscard]] virtual const Eigen::VectorXd& state() const = 0;
+  [[nodiscard]] virtual const Eigen::MatrixXd& covariance() const = 0;
+  [[nodiscard]] virtual const EstimatorCounters& counters() const = 0;
+  [[nodiscard]] virtual std::size_t num_states() const = 0;
+  // Constraint rows active after the last update, and their names.
+  [[nodiscard]] virtual std::span<const int> active_constraints() const = 0;
+  [[nodiscard]] virtual const std::string& constraint_name(int row) const = 0;
+};
+
+}  // namespace hvac_twin::est

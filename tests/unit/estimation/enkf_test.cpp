@@ -1,0 +1,147 @@
+// The constrained ensemble Kalman filter: agreement with the Kalman filter on a linear model,
+// independence from the number of threads, and constraints respected by every member.
+#include "daemon/estimation/enkf.hpp"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "daemon/estimation/ekf.hpp"
+#include "plant_models/core/ad_model.hpp"
+#include "plant_models/zone/zone_rc.hpp"
+#include "test_models.hpp"
+
+using namespace hvac_twin;
+using plant::ZoneRc;
+
+namespace {
+
+struct UnitInterval : test::RandomWalk {
+  plant::ModelLayout layout() const {
+    auto l = RandomWalk::layout();
+    l.states[0].min = 0.0;
+    l.states[0].max = 1.0;
+    return l;
+  }
+};
+
+struct Run {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P;
+};
+
+// The zone for 40 steps of 5 min with an air-temperature measurement each step.
+template <class Filter>
+Run run_zone(Filter& f) {
+  const std::vector<double> x0{19.0, 18.0, 200.0}, s0{1.0, 2.0, 300.0};
+  f.reset(x0, s0);
+  for (int k = 0; k < 40; ++k) {
+    const std::vector<double> u{2000.0 + 1500.0 * std::sin(0.3 * k), 5.0 * std::cos(0.1 * k)};
+    REQUIRE(f.predict(u, 300.0) == est::StepStatus::kOk);
+    const est::Measurement m{.output = ZoneRc::kZoneAirTemperature,
+                             .value = 21.0 + 0.3 * std::sin(1.7 * k),
+                             .variance = 0.0025,
+                             .available = true};
+    est::MeasurementReport rep;
+    REQUIRE(f.update({&m, 1}, u, {&rep, 1}) == est::StepStatus::kOk);
+  }
+  return {f.state(), f.covariance()};
+}
+
+}  // namespace
+
+TEST_CASE("the EnKF agrees with the Kalman filter on a random walk", "[enkf]") {
+  // F = 1, so both filters discretise the process noise identically (Q_c dt; on coupled models
+  // the EKF's trapezoid correlates it through F and the Jacobian-free EnKF cannot).
+  const plant::AdModel<test::RandomWalk> model{test::RandomWalk{}};
+  const double sigma_q = 0.1, dt = 10.0, r = 0.5;
+  est::Ekf kf(model, std::vector<double>{sigma_q}, 1, est::EkfOptions{});
+  est::EnkfOptions o;
+  o.members = 2000;
+  o.inflation = 1.0;
+  o.constrained = false;
+  est::ConstrainedEnkf enkf(model, std::vector<double>{sigma_q}, 1, o);
+  for (est::Estimator* f : {static_cast<est::Estimator*>(&kf), static_cast<est::Estimator*>(&enkf)})
+    f->reset(std::vector<double>{0.0}, std::vector<double>{2.0});
+  for (int k = 0; k < 100; ++k) {
+    const est::Measurement m{
+        .output = 0, .value = std::sin(0.05 * k), .variance = r, .available = true};
+    est::MeasurementReport rep;
+    for (est::Estimator* f :
+         {static_cast<est::Estimator*>(&kf), static_cast<est::Estimator*>(&enkf)}) {
+      REQUIRE(f->predict({}, dt) == est::StepStatus::kOk);
+      REQUIRE(f->update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+    }
+  }
+  const double qd = sigma_q * sigma_q * dt;
+  const double prior = 0.5 * (qd + std::sqrt(qd * qd + 4.0 * qd * r));
+  const double posterior = prior * r / (prior + r);
+  const double sigma = std::sqrt(posterior);
+  INFO("KF " << kf.state()(0) << ", EnKF " << enkf.state()(0) << " +- " << sigma
+             << "; posterior variance " << posterior << ", EnKF " << enkf.covariance()(0, 0));
+  // Sampling error with 2000 members: variances within ~sqrt(2/N) = 3 %, the mean within a
+  // small fraction of sigma (the perturbed observations add their own noise).
+  CHECK(kf.covariance()(0, 0) == Approx(posterior).epsilon(1e-9));
+  CHECK(enkf.covariance()(0, 0) == Approx(posterior).epsilon(0.1));
+  CHECK(std::abs(enkf.state()(0) - kf.state()(0)) < 0.15 * sigma);
+}
+
+TEST_CASE("the EnKF tracks the zone: errors within its own uncertainty", "[enkf]") {
+  const plant::AdModel<ZoneRc> model{ZoneRc(ZoneRc::Params{})};
+  const std::vector<double> q{0.01, 0.002, 2.0};
+  est::EnkfOptions eo;
+  eo.members = 400;
+  eo.inflation = 1.0;
+  eo.nis_gate = 1e12;
+  eo.constrained = false;
+  est::ConstrainedEnkf enkf(model, q, 1, eo);
+  est::EkfOptions ko;
+  ko.nis_gate = 1e12;
+  est::Ekf kf(model, q, 1, ko);
+  const Run a = run_zone(kf), b = run_zone(enkf);
+  for (int i = 0; i < 3; ++i) {
+    const double sigma = std::sqrt(a.P(i, i));
+    INFO("state " << i << ": KF " << a.x(i) << " +- " << sigma << ", EnKF " << b.x(i) << " +- "
+                  << std::sqrt(b.P(i, i)));
+    // Different (both valid) process-noise discretisations and sampling: within half a sigma.
+    CHECK(std::abs(a.x(i) - b.x(i)) < 0.5 * sigma);
+    CHECK(b.P(i, i) == Approx(a.P(i, i)).epsilon(0.25));
+  }
+}
+
+TEST_CASE("the EnKF gives the same result on 1 and on 3 threads", "[enkf]") {
+  const plant::AdModel<ZoneRc> model{ZoneRc(ZoneRc::Params{})};
+  const std::vector<double> q{0.01, 0.002, 2.0};
+  est::EnkfOptions o;
+  o.members = 24;
+  o.threads = 1;
+  est::ConstrainedEnkf one(model, q, 1, o);
+  o.threads = 3;
+  est::ConstrainedEnkf three(model, q, 1, o);
+  const Run a = run_zone(one), b = run_zone(three);
+  CHECK(a.x == b.x);
+  CHECK(a.P == b.P);
+  CHECK(one.members() == three.members());
+}
+
+TEST_CASE("every EnKF member respects the state constraints", "[enkf][constrained]") {
+  const plant::AdModel<UnitInterval> model{UnitInterval{}};
+  est::EnkfOptions o;
+  o.members = 50;
+  est::ConstrainedEnkf enkf(model, std::vector<double>{0.05}, 1, o);
+  enkf.reset(std::vector<double>{0.9}, std::vector<double>{0.3});  // half the draws exceed 1
+  CHECK((enkf.members().array() <= 1.0 + 1e-9).all());
+  CHECK((enkf.members().array() >= -1e-9).all());
+  for (int k = 0; k < 5; ++k) {
+    REQUIRE(enkf.predict({}, 1.0) == est::StepStatus::kOk);
+    const est::Measurement m{.output = 0, .value = 1.2, .variance = 0.01, .available = true};
+    est::MeasurementReport rep;
+    REQUIRE(enkf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+    CHECK((enkf.members().array() <= 1.0 + 1e-9).all());
+    CHECK((enkf.members().array() >= -1e-9).all());
+    CHECK(enkf.state()(0) <= 1.0 + 1e-9);
+  }
+  REQUIRE_FALSE(enkf.active_constraints().empty());
+  CHECK_THAT(enkf.constraint_name(enkf.active_constraints()[0]), Catch::StartsWith("x <= 1"));
+  CHECK(enkf.counters().constrained_updates > 0);
+}
