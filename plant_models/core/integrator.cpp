@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant_models/core/eigen_dense_solver.hpp"
+
 namespace hvac_twin::plant {
 
 struct Integrator::Sundials {
@@ -65,12 +67,14 @@ struct IntegratorCallbacks {
     const auto n = static_cast<Eigen::Index>(it.n_);
     const int status = it.model_.rhs_jacobian(view(y), it.u_, {}, {it.jac_.get(), it.n_ * it.n_});
     if (status != kModelOk) return status;
+    // One matrix product for all sensitivities: gather S, multiply, scatter.
     const Eigen::Map<const Eigen::MatrixXd> J(it.jac_.get(), n, n);
-    for (int j = 0; j < ns; ++j) {
-      Eigen::Map<const Eigen::VectorXd> s(N_VGetArrayPointer(yS[j]), n);
-      Eigen::Map<Eigen::VectorXd> sdot(N_VGetArrayPointer(ySdot[j]), n);
-      sdot.noalias() = J * s;
-    }
+    Eigen::Map<Eigen::MatrixXd> S(it.sens_.get(), n, ns), Sdot(it.sens_dot_.get(), n, ns);
+    for (int j = 0; j < ns; ++j)
+      S.col(j) = Eigen::Map<const Eigen::VectorXd>(N_VGetArrayPointer(yS[j]), n);
+    Sdot.noalias() = J * S;
+    for (int j = 0; j < ns; ++j)
+      Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(ySdot[j]), n) = Sdot.col(j);
     return 0;
   }
 
@@ -100,7 +104,9 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
       options_(options),
       n_(model.num_states()),
       s_(std::make_unique<Sundials>()),
-      jac_(new double[n_ * n_]()) {
+      jac_(new double[n_ * n_]()),
+      sens_(new double[n_ * n_]()),
+      sens_dot_(new double[n_ * n_]()) {
   if (n_ == 0) throw std::invalid_argument("integrator: model has no states");
   const auto n = static_cast<sunindextype>(n_);
   Sundials& s = *s_;
@@ -119,7 +125,7 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
   check(CVodeSetUserData(s.cvode, this), "CVodeSetUserData");
   check(CVodeSVtolerances(s.cvode, options_.rel_tol, s.abs_tol), "CVodeSVtolerances");
   s.jac = check_ptr(SUNDenseMatrix(n, n, s.ctx), "Jacobian matrix");
-  s.ls = check_ptr(SUNLinSol_Dense(s.y, s.jac, s.ctx), "dense linear solver");
+  s.ls = check_ptr(make_eigen_dense_solver(s.ctx, n), "dense linear solver");
   check(CVodeSetLinearSolver(s.cvode, s.ls, s.jac), "CVodeSetLinearSolver");
   check(CVodeSetJacFn(s.cvode, &IntegratorCallbacks::jacobian), "CVodeSetJacFn");
   check(CVodeSetMaxNumSteps(s.cvode, options_.max_steps), "CVodeSetMaxNumSteps");
@@ -127,6 +133,9 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
 
   if (options_.sensitivities) {
     s.ns = static_cast<int>(n_);
+    // Fused vector operations: CVODES then updates all sensitivity vectors in one call per
+    // operation instead of one call per vector.
+    check(N_VEnableFusedOps_Serial(s.y, SUNTRUE), "fused vector operations");
     s.yS = check_ptr(N_VCloneVectorArray(s.ns, s.y), "sensitivity vectors");
     s.abs_tol_S = check_ptr(N_VCloneVectorArray(s.ns, s.y), "sensitivity tolerances");
     for (int j = 0; j < s.ns; ++j) {

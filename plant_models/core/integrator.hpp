@@ -75,8 +75,9 @@ class Integrator {
   IntegratorOptions options_;
   std::size_t n_;
   std::unique_ptr<Sundials> s_;
-  std::span<const double> u_;      // inputs during the current step
-  std::unique_ptr<double[]> jac_;  // n x n scratch for the sensitivity right-hand side
+  std::span<const double> u_;                  // inputs during the current step
+  std::unique_ptr<double[]> jac_;              // n x n scratch for the sensitivity right-hand side
+  std::unique_ptr<double[]> sens_, sens_dot_;  // n x n: sensitivities gathered, and J S
   IntegrationStats stats_;
   std::array<char, 256> last_error_{};
 };

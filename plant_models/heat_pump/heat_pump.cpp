@@ -42,6 +42,19 @@ HeatPumpR32::HeatPumpR32(const hp::Params& params)
   cache_key_.assign(2 * (n_ + 1) + 3, 0.0);
 }
 
+HeatPumpR32::HeatPumpR32(const HeatPumpR32& other)
+    : p_(other.p_),
+      L_(other.L_),
+      n_(other.n_),
+      cache_key_(other.cache_key_),
+      cache_pc_(other.cache_pc_),
+      cache_pe_(other.cache_pe_),
+      cache_jac_(other.cache_jac_),
+      cache_valid_(other.cache_valid_),
+      pressure_eval_(std::make_unique<Eval<Dual<2>>>(*other.pressure_eval_)) {}
+
+HeatPumpR32::~HeatPumpR32() = default;
+
 int HeatPumpR32::solve_pressures(const SideInputs<double>& in, double speed, double& p_cond,
                                  double& p_evap, std::array<double, 4>& jac) const {
   const std::size_t N = n_;
@@ -73,7 +86,7 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, double speed, dou
     dv.h_cond[k] = in.h_cond[k];
     dv.h_evap[k] = in.h_evap[k];
   }
-  Eval<D> e;
+  Eval<D>& e = *pressure_eval_;
   const auto newton = [&](double pc, double pe) {
     for (int it = 0; it < 40; ++it) {
       D r1, r2;

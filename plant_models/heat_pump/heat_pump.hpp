@@ -25,6 +25,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -43,6 +44,11 @@ class HeatPumpR32 {
 
   explicit HeatPumpR32(const hp::Params& params);
   explicit HeatPumpR32(const ParameterMap& values) : HeatPumpR32(hp::params_from_map(values)) {}
+  // Copies have their own caches (a model instance serves one thread).
+  HeatPumpR32(const HeatPumpR32& other);
+  HeatPumpR32& operator=(const HeatPumpR32&) = delete;
+  HeatPumpR32(HeatPumpR32&&) noexcept = default;
+  ~HeatPumpR32();
 
   [[nodiscard]] static std::vector<ParameterInfo> parameter_info() { return hp::parameter_info(); }
   [[nodiscard]] ModelLayout layout() const { return make_layout(); }
@@ -105,6 +111,10 @@ class HeatPumpR32 {
   template <class S>
   int evaluate(std::span<const S> x, std::span<const double> u, Eval<S>& e) const;
   template <class S>
+  void promote(const Eval<double>& from, Eval<S>& to) const;
+  template <class S>
+  void chain_pressures(const Eval<Dual<2>>& at_p, const S& dpc, const S& dpe, Eval<S>& e) const;
+  template <class S>
   void march(std::span<Cell<S>> cells, std::span<const S> q, double v_cell, double v_line,
              const S& mdot_in, const S& h_in, const S& mdot_out, std::span<S> hdot, S& pdot) const;
 
@@ -116,6 +126,9 @@ class HeatPumpR32 {
   mutable double cache_pc_ = 0.0, cache_pe_ = 0.0;
   mutable std::array<double, 4> cache_jac_{};
   mutable bool cache_valid_ = false;
+  // The Newton solve's last evaluation, seeded in (p_cond, p_evap): the cells' pressure
+  // derivatives for chain_pressures().
+  std::unique_ptr<Eval<Dual<2>>> pressure_eval_ = std::make_unique<Eval<Dual<2>>>();
 };
 
 }  // namespace hvac_twin::plant

@@ -48,6 +48,48 @@ int HeatPumpR32::fill_sides(const T& p_cond, const T& p_evap, const SideInputs<T
 }
 
 template <class S>
+void HeatPumpR32::chain_pressures(const Eval<Dual<2>>& at_p, const S& dpc, const S& dpe,
+                                  Eval<S>& e) const {
+  const auto add = [&](const Dual<2>& by_p, S& f) { f += by_p.d[0] * dpc + by_p.d[1] * dpe; };
+  const auto cell = [&](const Cell<Dual<2>>& c2, Cell<S>& c) {
+    add(c2.p, c.p);
+    add(c2.rho, c.rho);
+    add(c2.rho_p, c.rho_p);
+    add(c2.rho_h, c.rho_h);
+    add(c2.T, c.T);
+    add(c2.quality, c.quality);
+  };
+  for (std::size_t k = 0; k <= n_; ++k) {
+    cell(at_p.cond[k], e.cond[k]);
+    cell(at_p.evap[k], e.evap[k]);
+  }
+  add(at_p.comp.mdot, e.comp.mdot);
+  add(at_p.comp.h_dis, e.comp.h_dis);
+  add(at_p.comp.w_ref, e.comp.w_ref);
+  add(at_p.comp.w_elec, e.comp.w_elec);
+  add(at_p.dp_cond, e.dp_cond);
+  add(at_p.dp_evap, e.dp_evap);
+  e.p_cond += dpc;
+  e.p_evap += dpe;
+}
+
+template <class S>
+void HeatPumpR32::promote(const Eval<double>& from, Eval<S>& to) const {
+  const auto cell = [](const Cell<double>& c) {
+    return Cell<S>{S(c.h), S(c.p), S(c.rho), S(c.rho_p), S(c.rho_h), S(c.T), S(c.quality)};
+  };
+  to.p_cond = S(from.p_cond);
+  to.p_evap = S(from.p_evap);
+  to.dp_cond = S(from.dp_cond);
+  to.dp_evap = S(from.dp_evap);
+  to.comp = {S(from.comp.mdot), S(from.comp.h_dis), S(from.comp.w_ref), S(from.comp.w_elec)};
+  for (std::size_t k = 0; k <= n_; ++k) {
+    to.cond[k] = cell(from.cond[k]);
+    to.evap[k] = cell(from.evap[k]);
+  }
+}
+
+template <class S>
 void HeatPumpR32::march(std::span<Cell<S>> cells, std::span<const S> q, double v_cell,
                         double v_line, const S& mdot_in, const S& h_in, const S& mdot_out,
                         std::span<S> hdot, S& pdot) const {
@@ -97,8 +139,24 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
   if (const int st = solve_pressures(dv, speed, pc, pe, J); st != kModelOk) return st;
 
   S r_cond{}, r_evap{};
-  if constexpr (std::is_same_v<S, double>) {
-    if (fill_sides(pc, pe, dv, speed, e, r_cond, r_evap) != kModelOk) return kModelRecoverable;
+  // With dual numbers seeded only in states the property solve does not read (walls, zone,
+  // unknowns), the refrigerant side has no tangents: evaluate it in double and promote.
+  bool plain = std::is_same_v<S, double>;
+  if constexpr (!std::is_same_v<S, double>) {
+    plain = true;
+    for (std::size_t i = 0; i < L_.refrigerant_states && plain; ++i)
+      for (const double d : x[i].d)
+        plain = plain && d == 0.0;
+  }
+  if (plain) {
+    if constexpr (std::is_same_v<S, double>) {
+      if (fill_sides(pc, pe, dv, speed, e, r_cond, r_evap) != kModelOk) return kModelRecoverable;
+    } else {
+      Eval<double> ed;
+      double rc = 0.0, re = 0.0;
+      if (fill_sides(pc, pe, dv, speed, ed, rc, re) != kModelOk) return kModelRecoverable;
+      promote(ed, e);
+    }
   } else {
     SideInputs<S> sv;
     sv.charge = x[L_.charge];
@@ -116,8 +174,10 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
     const double det = J[0] * J[3] - J[1] * J[2];
     const S dpc = -(J[3] * r_cond - J[1] * r_evap) / det;
     const S dpe = -(J[0] * r_evap - J[2] * r_cond) / det;
-    if (fill_sides(S(pc) + dpc, S(pe) + dpe, sv, speed, e, r_cond, r_evap) != kModelOk)
-      return kModelRecoverable;
+    // The properties were evaluated at the pressures held fixed; add their dependence on the
+    // pressures by the chain rule, dF += dF/dp_c dp_c + dF/dp_e dp_e, with dF/dp from the
+    // Newton solve's last evaluation (seeded in both pressures, friction included).
+    chain_pressures(*pressure_eval_, dpc, dpe, e);
   }
 
   // Expansion valve between the liquid line and the evaporator inlet.

@@ -2,14 +2,14 @@
 // heat exchanger and the augmented unknowns are structural parameters, so the layout is computed
 // at construction; everything else indexes through these named slices.
 //
-// State (units in brackets; enthalpies in kJ/kg keep the covariance well scaled):
+// State, in this order (units in brackets; enthalpies in kJ/kg keep the covariance well scaled):
 //   charge            [kg]     total refrigerant mass (changes only by a leak)
 //   M_cond            [kg]     mass in the high side: discharge line, condenser, liquid line
 //   h_cond_i          [kJ/kg]  condenser cell enthalpies, i = 0..N-1 in flow direction
 //   h_liquid_line     [kJ/kg]  liquid line (adiabatic cell): the expansion-valve inlet
-//   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
 //   h_evap_i          [kJ/kg]  evaporator cell enthalpies
 //   h_suction_line    [kJ/kg]  suction line (adiabatic cell): the compressor inlet
+//   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
 //   Tw_evap_i         [degC]   evaporator wall temperatures
 //   T_air, T_mass     [degC]   zone air and building mass (as zone_rc)
 //   Q_int             [W]      internal gains            (augmented, optional)
@@ -36,6 +36,7 @@ struct Layout {
   std::size_t charge = 0, m_cond = 1;
   Slice h_cond, tw_cond, h_evap, tw_evap;
   std::size_t h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
+  std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the property solve
   std::size_t q_int = kNone, leak = kNone, fouling = kNone;  // kNone: not augmented
   std::size_t size = 0;
 
@@ -46,11 +47,14 @@ struct Layout {
       at += count;
       return s;
     };
+    // The refrigerant states (masses and enthalpies) first: they are all the property solve
+    // depends on, so derivative chunks past them skip it (see HeatPumpR32::evaluate).
     h_cond = take(n);
     h_ll = at++;
-    tw_cond = take(n);
     h_evap = take(n);
     h_sl = at++;
+    refrigerant_states = at;
+    tw_cond = take(n);
     tw_evap = take(n);
     t_air = at++;
     t_mass = at++;

@@ -17,8 +17,9 @@
 // (8 % at 0.3 MPa, below any heat-pump operating point) and under 0.3 % at the dew line; the
 // mass it moves is a fraction of one cell's, and only while that cell crosses the line.
 //
-// width_h = 0 returns the raw table (for comparisons). Units SI as r32_table.hpp. Templated on the scalar (double or Dual<K>): the partials carry
-// exact tangents too. No allocation, no exceptions; thread-safe (reads the shared table).
+// width_h = 0 returns the raw table (for comparisons). Units SI as r32_table.hpp. Templated on the
+// scalar (double or Dual<K>): the partials carry exact tangents too. No allocation, no exceptions;
+// thread-safe (reads the shared table).
 #pragma once
 
 #include <cmath>
@@ -83,11 +84,14 @@ SmoothState<S> smooth_ph(const S& p, const S& h, double width_h = kDefaultSmooth
   out.drho_dh = raw.drho_dh_p;
   if (raw.status != Status::kOk || width_h <= 0.0) return out;  // width 0: the raw table
 
+  // Far from both lines (the common case) the raw table is the answer.
+  const double hv_ = value_of(h);
+  const bool bubble_side = hv_ < 0.5 * (value_of(raw.h_l) + value_of(raw.h_v));
+  const double distance = bubble_side ? hv_ - value_of(raw.h_l) : hv_ - value_of(raw.h_v);
+  if (std::abs(distance) > kSmoothingWindow * width_h) return out;
   const SatState<S> sat = table.sat_p(p);
   const S hfg = sat.h_v - sat.h_l;
-  const bool bubble_side = value_of(h) < 0.5 * (value_of(sat.h_l) + value_of(sat.h_v));
   const S d = bubble_side ? h - sat.h_l : h - sat.h_v;
-  if (std::abs(value_of(d)) > kSmoothingWindow * width_h) return out;
 
   // Width from the two-phase slope at the line; its relative p-derivative by the chain rule:
   //   bubble: w = width_h rho_l (rho_l - rho_v) / (rho_v hfg)

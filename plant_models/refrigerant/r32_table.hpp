@@ -55,6 +55,8 @@ struct PhState {
   S drho_dh_p{};  // kg^2/(m^3 J)
   S dT_dp_h{};    // K/Pa
   S dT_dh_p{};    // K kg/J   (0 in two phase)
+  S h_l{};        // J/kg, bubble-line enthalpy at p
+  S h_v{};        // J/kg, dew-line enthalpy at p
 };
 
 // Saturation properties as functions of p, with their derivatives along the saturation curve.

@@ -98,6 +98,8 @@ void PhTable::eval_region(const Located<S>& at, const table_detail::Basis<S>& A,
     out.dT_dh_p = S(0.0);
   }
   out.quality = (h - hl) / (hv - hl);
+  out.h_l = hl;
+  out.h_v = hv;
 }
 
 template <class S>
