@@ -1,6 +1,9 @@
-// Readers for the Modbus device, DDS and runtime sections.
+// Readers for the Modbus device, DDS (with DDS Security) and runtime sections.
 #include <algorithm>
 #include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
 
 #include "config/detail/limits.hpp"
 #include "config/detail/sections.hpp"
@@ -35,6 +38,64 @@ void report_field(ObjectReader& r, std::string_view key, const std::string& mess
 
 std::string seconds(double v) {
   return format_number(v) + " s";
+}
+
+constexpr std::string_view kCredentialsPrefix = "${CREDENTIALS_DIRECTORY}/";
+
+// Why `path` is not a DDS Security file path (DdsSecurityConfig), or "" when it is one.
+std::string security_path_problem(std::string_view path) {
+  if (path.size() > kMaxPathLength) return "longer than 4096 characters";
+  std::string_view rest = path;
+  if (rest.starts_with(kCredentialsPrefix)) {
+    rest.remove_prefix(kCredentialsPrefix.size());
+    if (rest.empty() || rest.find('/') != std::string_view::npos)
+      return "a credential is one file name after ${CREDENTIALS_DIRECTORY}/";
+  } else if (!rest.starts_with('/')) {
+    return "not an absolute path";
+  }
+  for (const char c : rest) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return "contains a control character";
+    if (std::string_view("<>&$\\").find(c) != std::string_view::npos)
+      return std::string("contains '") + c + "'";
+  }
+  return {};
+}
+
+std::optional<DdsSecurityConfig> read_security(const Ref& ref, Errors& errors) {
+  if (!ref.present()) return std::nullopt;
+  DdsSecurityConfig s;
+  bool ok = true;
+  ObjectReader r(ref, errors);
+  const auto path = [&](std::string_view key, std::string& out) {
+    const Ref v = r.require(key);
+    if (!v.present()) {
+      ok = false;
+      return;
+    }
+    const auto text = read_string(v, errors);
+    if (!text) {
+      ok = false;
+      return;
+    }
+    if (const std::string problem = security_path_problem(*text); !problem.empty()) {
+      errors.add(*v.node, v.pointer,
+                 "expected an absolute file path or \"${CREDENTIALS_DIRECTORY}/<name>\" without "
+                 "control characters or any of < > & $ \\; got " +
+                     describe_value(*v.node) + " (" + problem + ")");
+      ok = false;
+      return;
+    }
+    out = *text;
+  };
+  path("identity_ca", s.identity_ca);
+  path("identity_certificate", s.identity_certificate);
+  path("private_key", s.private_key);
+  path("permissions_ca", s.permissions_ca);
+  path("governance", s.governance);
+  path("permissions", s.permissions);
+  r.finish();
+  if (!r.ok() || !ok) return std::nullopt;
+  return s;
 }
 
 }  // namespace
@@ -154,6 +215,7 @@ DdsConfig read_dds(const Ref& ref, Errors& errors) {
     if (auto s = read_token(v, errors, is_identifier_char, "[A-Za-z0-9_]", kMaxNameLength))
       d.topic_prefix = *s;
   }
+  d.security = read_security(r.get("security"), errors);
   r.finish();
   if (multicast_ok && peers_ok && !d.allow_multicast && d.peers.empty())
     report_field(r, "peers",

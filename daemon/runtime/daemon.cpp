@@ -4,6 +4,7 @@
 #include <string>
 
 #include "daemon/runtime/clock.hpp"
+#include "io/dds/security.hpp"
 
 namespace hvac_twin::runtime {
 
@@ -15,9 +16,11 @@ Daemon::~Daemon() {
 }
 
 void Daemon::start() {
-  participant_ = std::make_unique<dds::Participant>(config_.dds);
-  log_->info("DDS domain {} on interface {}, topics {}/*", config_.dds.domain_id,
-             config_.dds.interface, config_.dds.topic_prefix);
+  participant_ = dds::make_participant(config_.dds);
+  log_->info("DDS domain {} on interface {}, topics {}/*, DDS Security {}", config_.dds.domain_id,
+             config_.dds.interface, config_.dds.topic_prefix,
+             config_.dds.security ? "on (governance " + config_.dds.security->governance + ")"
+                                  : std::string("off"));
   for (std::size_t i = 0; i < config_.units.size(); ++i) {
     pipelines_.push_back(std::make_unique<UnitPipeline>(config_, i, *participant_, log_, hooks_));
     const auto& u = config_.units[i];

@@ -1,6 +1,8 @@
 // hvac-twind as a service manager sees it: configuration errors exit 78 with every error at its
-// JSON pointer; READY=1 after start-up and WATCHDOG=1 only from completed cycles; a hung cycle or
-// repeated overruns stop the pings; SIGTERM shuts down cleanly within one period.
+// JSON pointer and without READY=1; READY=1 after start-up and WATCHDOG=1 only from completed
+// cycles, at least every half WatchdogSec; a hung cycle stops the pings at once (well within one
+// WatchdogSec) and the daemon exits 70 after its hang timeout; repeated overruns stop the pings;
+// SIGTERM shuts down cleanly within one period.
 #include <catch2/catch.hpp>
 #include <thread>
 
@@ -59,11 +61,14 @@ TEST_CASE("check-config names every error by JSON pointer and exits 78", "[integ
   REQUIRE(good.wait(10s) == 0);
   CHECK_THAT(good.out(), Catch::Contains("valid"));
 
-  // Started as a service with a bad file, it refuses to start with the same status.
+  // Started as a service with a bad file, it refuses to start with the same status and never
+  // tells systemd it is ready (RestartPreventExitStatus=78 then keeps it down).
+  NotifySocket systemd;
   Process daemon(HVAC_TWIND_EXE, {"--config", source("config/examples/several-errors.json")},
-                 dir + "/cc-d.out", dir + "/cc-d.err");
+                 dir + "/cc-d.out", dir + "/cc-d.err", {"NOTIFY_SOCKET=" + systemd.path()});
   REQUIRE(daemon.wait(10s) == 78);
   CHECK_THAT(daemon.err(), Catch::Contains("not starting"));
+  CHECK(systemd.receive(100ms).empty());
 }
 
 TEST_CASE("READY=1 after start-up, WATCHDOG=1 from completed cycles, clean SIGTERM",
@@ -99,7 +104,8 @@ TEST_CASE("READY=1 after start-up, WATCHDOG=1 from completed cycles, clean SIGTE
   CHECK(std::find(bye.begin(), bye.end(), "STOPPING=1") != bye.end());
 }
 
-TEST_CASE("a hung cycle stops the pings, then the daemon exits 70", "[integration][systemd]") {
+TEST_CASE("a hung cycle stops the pings within one WatchdogSec, then the daemon exits 70",
+          "[integration][systemd]") {
   StackOptions o;
   o.domain_id = 54;
   o.time_scale = 60.0;
@@ -109,15 +115,44 @@ TEST_CASE("a hung cycle stops the pings, then the daemon exits 70", "[integratio
   Stack stack("hang", o);
   stack.start_sim();
   NotifySocket systemd;
+  constexpr double kWatchdogSec = 1.0;
   stack.start_daemon({"--fault-hang-at-cycle", "10"},
                      {"NOTIFY_SOCKET=" + systemd.path(), "WATCHDOG_USEC=1000000"});
   REQUIRE(!systemd.receive(10s, "READY=1").empty());
-  const auto pings = watchdog_times(systemd, 6s);
+
+  // Play systemd for 6 s: note every WATCHDOG=1, when the cycle hangs (the fault hook logs it)
+  // and when the daemon exits.
+  const auto start = std::chrono::steady_clock::now();
+  const auto since = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  std::vector<double> pings;
+  double hang_at = -1.0, exit_at = -1.0;
+  while (since() < 6.0) {
+    for (const auto& m : systemd.receive(20ms))
+      if (m == "WATCHDOG=1") pings.push_back(since());
+    if (hang_at < 0 && stack.daemon().err().find("fault hook: cycle") != std::string::npos)
+      hang_at = since();
+    if (exit_at < 0 && !stack.daemon().running()) exit_at = since();
+  }
   const auto rc = stack.daemon().wait(5s);
-  REQUIRE(!pings.empty());
-  INFO("last ping at " << pings.back() << " s of 6 s; daemon log:\n" << stack.daemon().err());
-  // Cycle 10 starts ~2 s after start-up; the pings stop there and never resume.
-  CHECK(pings.back() < 3.0);
+  std::string times;
+  for (double t : pings)
+    times += std::to_string(t).substr(0, 5) + " ";
+  INFO("pings at " << times << "s; hang at " << hang_at << " s; exit at " << exit_at
+                   << " s; daemon log:\n"
+                   << stack.daemon().err());
+  REQUIRE(hang_at > 0.0);
+  REQUIRE(pings.size() >= 3);
+  // Until the hang, a ping at least every half WatchdogSec.
+  CHECK(largest_gap(pings, 0.0) <= kWatchdogSec / 2);
+  // The pings stop at the hang (20 ms of polling slack on each side) and never resume...
+  CHECK(pings.back() <= hang_at + 0.05);
+  CHECK(pings.back() >= hang_at - kWatchdogSec / 2);
+  // ...so a systemd with WatchdogSec=1s would act one WatchdogSec after the last ping, long before
+  // the daemon's own hang timeout (2 s) makes it exit with 70.
+  REQUIRE(exit_at > 0.0);
+  CHECK(exit_at - pings.back() > kWatchdogSec);
   REQUIRE(rc.has_value());
   CHECK(*rc == 70);
   CHECK_THAT(stack.daemon().err(), Catch::Contains("hung"));

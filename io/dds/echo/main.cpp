@@ -4,12 +4,15 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "io/dds/echo/format.hpp"
 #include "io/dds/echo/options.hpp"
 #include "io/dds/participant.hpp"
+#include "io/dds/security.hpp"
 #include "io/dds/subscriber.hpp"
 
 namespace {
@@ -45,11 +48,11 @@ std::string topic_list(const hvac_twin::dds::echo::Options& options) {
 int run(const hvac_twin::dds::echo::Options& options) {
   using namespace hvac_twin::dds;
   using Clock = std::chrono::steady_clock;
-  Participant participant(options.dds);
-  Subscriber subscriber(participant, options.dds.topic_prefix, options.topics);
-  std::fprintf(stderr, "hvac-twin-echo: domain %d, interface %s, topics %s\n",
-               participant.domain_id(), participant.interface_name().c_str(),
-               topic_list(options).c_str());
+  const std::unique_ptr<Participant> participant = make_participant(options.dds);
+  Subscriber subscriber(*participant, options.dds.topic_prefix, options.topics);
+  std::fprintf(stderr, "hvac-twin-echo: domain %d, interface %s, topics %s%s\n",
+               participant->domain_id(), participant->interface_name().c_str(),
+               topic_list(options).c_str(), options.dds.security ? ", DDS Security on" : "");
 
   const auto start = Clock::now();
   const auto end = options.duration_s
@@ -97,6 +100,13 @@ int main(int argc, char** argv) {
     return kExitOk;
   }
   install_signal_handlers();
+  if (options.dds.security) {  // Cyclone reads file: paths as given; make them independent of it
+    auto& s = *options.dds.security;
+    for (std::string* path : {&s.identity_ca, &s.identity_certificate, &s.private_key,
+                              &s.permissions_ca, &s.governance, &s.permissions})
+      if (!path->starts_with('/') && !path->starts_with("${"))
+        *path = std::filesystem::absolute(*path).string();
+  }
   try {
     return run(options);
   } catch (const std::exception& e) {

@@ -1,6 +1,8 @@
 #include "io/dds/echo/options.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <iterator>
 #include <string_view>
 #include <vector>
 
@@ -44,11 +46,41 @@ TopicSet parse_topics(std::string_view list) {
   return set;
 }
 
+// The DDS Security files: each option fills one field of config::DdsSecurityConfig.
+struct SecurityOption {
+  std::string_view name;
+  std::string config::DdsSecurityConfig::*field;
+};
+constexpr SecurityOption kSecurityOptions[] = {
+    {"--identity-ca", &config::DdsSecurityConfig::identity_ca},
+    {"--identity-certificate", &config::DdsSecurityConfig::identity_certificate},
+    {"--private-key", &config::DdsSecurityConfig::private_key},
+    {"--permissions-ca", &config::DdsSecurityConfig::permissions_ca},
+    {"--governance", &config::DdsSecurityConfig::governance},
+    {"--permissions", &config::DdsSecurityConfig::permissions},
+};
+
+// All six security options or none.
+void finish_security(const config::DdsSecurityConfig& given, int count, Options& options) {
+  if (count == 0) return;
+  std::string missing;
+  for (const auto& option : kSecurityOptions) {
+    if (!(given.*option.field).empty()) continue;
+    if (!missing.empty()) missing += ", ";
+    missing += option.name;
+  }
+  if (!missing.empty())
+    throw UsageError("DDS Security needs all six security options; missing " + missing);
+  options.dds.security = given;
+}
+
 }  // namespace
 
 Options parse_options(int argc, const char* const* argv) {
   Options options;
   bool peers_given = false;
+  config::DdsSecurityConfig security;
+  int security_given = 0;
   for (int i = 1; i < argc; ++i) {
     std::string_view arg = argv[i];
     std::string_view value;
@@ -98,10 +130,19 @@ Options parse_options(int argc, const char* const* argv) {
       } else {
         throw UsageError("--format: must be json or text");
       }
+    } else if (const auto* option =
+                   std::find_if(std::begin(kSecurityOptions), std::end(kSecurityOptions),
+                                [&](const SecurityOption& o) { return o.name == arg; });
+               option != std::end(kSecurityOptions)) {
+      const std::string_view path = next();
+      if (path.empty()) throw UsageError(std::string(arg) + ": empty path");
+      security.*option->field = path;
+      ++security_given;
     } else {
       throw UsageError("unknown option '" + std::string(arg) + "' (see --help)");
     }
   }
+  finish_security(security, security_given, options);
   try {  // the same checks the participant and topics make, reported as usage errors
     (void)topic_name(options.dds.topic_prefix, Topic::kVirtualSensor);
     (void)make_cyclone_config(options.dds);
@@ -131,6 +172,15 @@ Options:
   --duration S         exit after S seconds
   --format json|text   json: one JSON object per sample with a "topic" field (default);
                        text: one aligned human-readable line per sample
+
+DDS Security (all six together, or none; files as for the daemon's dds.security):
+  --identity-ca FILE           PEM certificate of the identity CA
+  --identity-certificate FILE  PEM certificate of this subscriber, issued by the identity CA
+  --private-key FILE           its PEM private key
+  --permissions-ca FILE        PEM certificate of the CA that signed the two documents below
+  --governance FILE            signed governance document (the daemon's)
+  --permissions FILE           signed permissions granting this subscriber's subject
+                               subscribe access to the topics
   -h, --help           show this help
 
 Exit status: 0 on success, SIGINT or SIGTERM; 1 on a DDS error; 64 on a usage error.

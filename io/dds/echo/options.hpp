@@ -14,7 +14,7 @@ namespace hvac_twin::dds::echo {
 enum class Format { kJson, kText };
 
 struct Options {
-  config::DdsConfig dds;               // domain, interface, peers, topic prefix
+  config::DdsConfig dds;               // domain, interface, peers, topic prefix, security
   TopicSet topics;                     // --topics
   std::optional<std::uint64_t> count;  // --count: exit after this many samples
   std::optional<double> duration_s;    // --duration: exit after this many seconds [s, wall]
