@@ -69,7 +69,9 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
   Pxy_ = K_ = Eigen::MatrixXd::Zero(n, f);
   Kt_ = Eigen::MatrixXd::Zero(f, n);
   Pyy_ = Eigen::MatrixXd::Zero(f, f);
-  llt_ = Eigen::LLT<Eigen::MatrixXd>(f);
+  // Sized by a factorisation, not by move-assigning LLT(f): that constructor leaves its
+  // ComputationInfo unset, and copying the indeterminate enum is undefined behaviour (UBSan).
+  llt_.compute(Eigen::MatrixXd::Identity(f, f));
   ymean_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m_));
   fused_.assign(static_cast<std::size_t>(f), 0);
   consecutive_rejections_.assign(max_measurements, 0);

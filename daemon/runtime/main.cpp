@@ -33,6 +33,7 @@ void usage(std::FILE* to) {
                "Test hooks (never in production):\n"
                "  --fault-hang-at-cycle N     cycle N of every unit blocks until shut-down\n"
                "  --fault-cycle-delay-ms MS   every cycle sleeps MS ms after predict\n"
+               "  --fault-nan-output-at-cycle N  cycle N hands the publisher a NaN estimate\n"
                "\n"
                "Exit status: 0 after SIGTERM/SIGINT, 78 invalid configuration, 70 a hung cycle,\n"
                "1 any other start-up failure.\n",
@@ -83,6 +84,9 @@ int main(int argc, char** argv) {
       hooks.hang_at_cycle = static_cast<std::uint64_t>(number);
     } else if (arg == "--fault-cycle-delay-ms" && has_value && parse_number(argv[++i], number)) {
       hooks.extra_cycle_delay_ns = static_cast<std::int64_t>(number * 1e6);
+    } else if (arg == "--fault-nan-output-at-cycle" && has_value &&
+               parse_number(argv[++i], number)) {
+      hooks.nan_output_at_cycle = static_cast<std::uint64_t>(number);
     } else {
       std::fprintf(stderr, "hvac-twind: unknown or incomplete option \"%s\"\n\n", argv[i]);
       usage(stderr);
