@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,12 +67,24 @@ struct ModelConfig {
                                              // parameters take the model's defaults
 };
 
+// Which filter runs the unit (JSON "ekf" | "constrained_ekf" | "constrained_enkf").
+//  kEkf:             extended Kalman filter, exact F from CVODES sensitivities
+//  kConstrainedEkf:  the same with the QP-constrained update and covariance truncation
+//  kConstrainedEnkf: ensemble Kalman filter, members projected onto the constraints
+enum class EstimatorType { kEkf, kConstrainedEkf, kConstrainedEnkf };
+
 struct EstimatorConfig {
+  EstimatorType type = EstimatorType::kConstrainedEkf;
+  int ensemble_members = 32;  // constrained_enkf: ensemble size, 4..1000
+  int threads = 2;            // constrained_enkf: worker threads (the cycle thread included)
   double period_s = 10.0;   // model time advanced per cycle [s]
   double deadline_s = 1.0;  // wall-time budget of one cycle [s]; an overrun degrades the cycle;
                             // <= period_s / runtime.time_scale and < runtime.hang_timeout_s
   double nis_gate = 10.83;  // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
-  int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty
+  int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty;
+                                       // most points rejected this often resets the covariance
+  double settle_s = 0.0;  // model seconds the model runs at the first inputs before filtering
+                          // starts from its initial guess [s]
   // Per state, in the state's unit; a state not listed takes the model's StateInfo default
   // (process_noise, initial, initial_std). Names are states of the unit's model.
   std::map<std::string, double> process_noise;  // state -> random-walk intensity, >= 0
@@ -92,12 +105,32 @@ struct UnitConfig {
   EstimatorConfig estimator;        // required (for measurement_noise)
 };
 
+// DDS Security with Cyclone DDS's built-in plugins: authentication by X.509 certificates
+// (DDS:Auth:PKI-DH), access control by signed governance and permissions documents
+// (DDS:Access:Permissions), encryption with AES-GCM (DDS:Crypto:AES-GCM-GMAC). What is protected
+// (discovery, liveliness, data; sign or encrypt) is the governance document's decision.
+// Every field is required and is a file path: absolute, or "${CREDENTIALS_DIRECTORY}/<name>" for
+// a file systemd's LoadCredential= provides (resolved from the environment at start-up). Paths
+// are 1..4096 characters without control characters or any of < > & $ \ (other than that one
+// leading variable). The loader does not touch the files; the daemon checks at start-up that each
+// is readable and stops with an error naming the field if one is not.
+struct DdsSecurityConfig {
+  std::string identity_ca;           // PEM certificate of the CA that issues identities
+  std::string identity_certificate;  // PEM certificate of this participant, issued by identity_ca
+  std::string private_key;           // PEM private key of identity_certificate (unencrypted)
+  std::string permissions_ca;        // PEM certificate of the CA that signs the two documents
+  std::string governance;            // S/MIME-signed governance document (usually *.p7s)
+  std::string permissions;           // S/MIME-signed permissions document with a grant for the
+                                     // subject of identity_certificate
+};
+
 struct DdsConfig {
   int domain_id = 0;                            // 0..232
   std::string interface = "lo";                 // network interface Cyclone DDS is pinned to
   bool allow_multicast = false;                 // multicast discovery (off: unicast to `peers`)
   std::vector<std::string> peers{"127.0.0.1"};  // unicast discovery peers; >= 1 without multicast
   std::string topic_prefix = "hvac_twin";       // topics are "<prefix>/<topic>"; [A-Za-z0-9_]+
+  std::optional<DdsSecurityConfig> security;    // JSON "security"; absent: no DDS Security
 };
 
 struct RuntimeConfig {

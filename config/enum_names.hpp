@@ -27,13 +27,22 @@ inline constexpr std::array<std::string_view, 3> kPointRoleNames{"measured", "in
 inline constexpr std::array kPointRoles{PointRole::kMeasured, PointRole::kInput,
                                         PointRole::kDisturbance};
 
+inline constexpr std::array<std::string_view, 3> kEstimatorTypeNames{"ekf", "constrained_ekf",
+                                                                     "constrained_enkf"};
+inline constexpr std::array kEstimatorTypes{EstimatorType::kEkf, EstimatorType::kConstrainedEkf,
+                                            EstimatorType::kConstrainedEnkf};
+
 inline constexpr std::array<std::string_view, 5> kLogLevelNames{"trace", "debug", "info", "warn",
                                                                 "error"};
 
 // The tables above are indexed by the enum values.
 static_assert(kRegisterKinds[1] == RegisterKind::kInput && kValueTypes[4] == ValueType::kFloat32 &&
-              kWordOrders[3] == WordOrder::kDCBA && kPointRoles[2] == PointRole::kDisturbance);
+              kWordOrders[3] == WordOrder::kDCBA && kPointRoles[2] == PointRole::kDisturbance &&
+              kEstimatorTypes[2] == EstimatorType::kConstrainedEnkf);
 
+constexpr std::string_view to_string(EstimatorType v) {
+  return kEstimatorTypeNames[static_cast<std::size_t>(v)];
+}
 constexpr std::string_view to_string(RegisterKind v) {
   return kRegisterKindNames[static_cast<std::size_t>(v)];
 }

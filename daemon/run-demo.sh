@@ -1,16 +1,26 @@
 #!/usr/bin/env bash
-# The live demo, all on this machine: hvac-twin-sim serves a simulated zone over Modbus TCP on
-# 127.0.0.1:15020, hvac-twind estimates it (one model minute per wall second) and publishes over
-# DDS on the loopback interface, and hvac-twin-echo prints what a dashboard would receive.
-# Usage: daemon/run-demo.sh [BUILD_DIR] [SECONDS]   (default: build, until Ctrl-C)
+# The live demo, all on this machine: hvac-twin-sim simulates an R32 split heat pump cooling a
+# zone through a summer day (its outdoor coil 7 % fouled) and serves its sensor points over
+# Modbus TCP on 127.0.0.1:15021; hvac-twind estimates it in real time and publishes over DDS on
+# the loopback interface; hvac-twin-echo prints what a dashboard would receive.
+# Usage: daemon/run-demo.sh [BUILD_DIR] [SECONDS] [CONFIG]
+#   default: build, until Ctrl-C, config/demo-heat-pump.json (config/demo.json: the zone model)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=$(cd "${1:-$here/build}" && pwd)
 seconds=${2:-0}
-config="$here/config/demo.json"
+config=$(cd "$(dirname "${3:-$here/config/demo-heat-pump.json}")" && pwd)/$(basename "${3:-demo-heat-pump.json}")
 logs="$build/demo"
 mkdir -p "$logs"
 cd "$logs"  # the demo's state directory is relative: it lands here
+
+sim_args=(--config "$config" --truth-csv "$logs/truth.csv")
+shown='.'  # every line
+if grep -q '"heat_pump_r32"' "$config"; then
+  sim_args+=(--set cond_ua_air=700)  # the truth's outdoor coil is 7 % fouled
+  shown=' (condenser_outlet_pressure|valve_inlet_enthalpy|superheat|subcooling|cooling_capacity'
+  shown+='|compressor_power|cop|charge|leak_rate|outdoor_coil_fouling) | health '
+fi
 
 pids=()
 cleanup() {
@@ -20,17 +30,16 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 0' INT TERM
 
-"$build/tests/simulator/hvac-twin-sim" --config "$config" --truth-csv "$logs/truth.csv" \
-  >"$logs/sim.log" 2>&1 &
+"$build/tests/simulator/hvac-twin-sim" "${sim_args[@]}" >"$logs/sim.log" 2>&1 &
 pids+=($!)
 sleep 0.5
 "$build/daemon/runtime/hvac-twind" --config "$config" 2> >(sed -u 's/^/[hvac-twind] /' >&2) &
 pids+=($!)
 
-echo "hvac-twin demo: simulated zone on Modbus 127.0.0.1:15020, DDS domain 0 on lo."
+echo "hvac-twin demo: $(basename "$config"), simulated plant on Modbus 127.0.0.1, DDS domain 0 on lo."
 echo "Each line is a DDS sample: virtual sensors (value ± 1 sigma), health. Ctrl-C stops."
 echo "Logs and the simulated truth: $logs"
 echo
 echo_args=(--domain 0 --format text --topics virtual_sensor,estimator_health)
 if [ "$seconds" != 0 ]; then echo_args+=(--duration "$seconds"); fi
-"$build/io/dds/hvac-twin-echo" "${echo_args[@]}"
+"$build/io/dds/hvac-twin-echo" "${echo_args[@]}" | grep --line-buffered -E "$shown"

@@ -6,6 +6,7 @@
 
 #include "config/detail/limits.hpp"
 #include "config/detail/sections.hpp"
+#include "config/enum_names.hpp"
 
 namespace hvac_twin::config::detail {
 namespace {
@@ -135,6 +136,11 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.number("nis_gate", e.nis_gate, positive());
   r.integer("max_consecutive_rejections", e.max_consecutive_rejections, 1,
             kMaxConsecutiveRejections);
+  r.number("settle_s", e.settle_s, closed(0.0, kMaxPeriodS), false, "s");
+  r.choice("type", e.type, std::span<const std::string_view>(kEstimatorTypeNames),
+           std::span<const EstimatorType>(kEstimatorTypes));
+  r.integer("ensemble_members", e.ensemble_members, 4, 1000);
+  r.integer("threads", e.threads, 1, 64);
 
   const plant::ModelLayout* layout = context.layout;
   const auto states = layout ? names_of(layout->states) : std::vector<std::string>{};

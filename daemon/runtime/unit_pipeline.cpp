@@ -1,7 +1,9 @@
 #include "daemon/runtime/unit_pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <thread>
 
@@ -38,6 +40,11 @@ config::Conversion must_convert(const std::string& from, const std::string& to,
   return *c;
 }
 
+// A value in model units the filter may use: finite and inside the signal's physical range.
+bool usable(double value, double min, double max) {
+  return std::isfinite(value) && value >= min && value <= max;
+}
+
 double lookup(const std::map<std::string, double>& m, const std::string& key, double fallback) {
   const auto it = m.find(key);
   return it == m.end() ? fallback : it->second;
@@ -62,6 +69,7 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   // Initial state, its uncertainty and the process noise: model defaults, then configuration.
   std::vector<double> q;
   for (const auto& s : layout.states) {
+    configured_x0_.push_back(unit_.estimator.initial_state.contains(s.name));
     x0_.push_back(lookup(unit_.estimator.initial_state, s.name, s.initial));
     std0_.push_back(lookup(unit_.estimator.initial_std, s.name, s.initial_std));
     q.push_back(lookup(unit_.estimator.process_noise, s.name, s.process_noise));
@@ -71,6 +79,8 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   for (std::size_t i = 0; i < layout.inputs.size(); ++i) {
     InputBinding b;
     b.input = i;
+    b.min = layout.inputs[i].min;
+    b.max = layout.inputs[i].max;
     b.value = layout.inputs[i].default_value;
     b.have = std::isfinite(b.value);
     for (std::size_t p = 0; p < unit_.points.size(); ++p) {
@@ -92,6 +102,8 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
     b.point = p;
     b.output = *out;
     b.to_model = must_convert(pc.unit, layout.outputs[*out].unit, "point " + pc.name);
+    b.min = layout.outputs[*out].min;
+    b.max = layout.outputs[*out].max;
     const double sigma = lookup(unit_.estimator.measurement_noise, pc.signal, 0.0);
     if (!(sigma > 0.0)) throw std::invalid_argument("no measurement noise for " + pc.signal);
     b.variance = sigma * sigma;
@@ -103,6 +115,10 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   opt.max_consecutive_rejections = unit_.estimator.max_consecutive_rejections;
   ekf_ = std::make_unique<est::Ekf>(*model_, q, measured_.size(), opt);
 
+  guess_x_.assign(layout.states.size(), 0.0);
+  guess_y_.assign(layout.outputs.size(), 0.0);
+  if (unit_.estimator.settle_s > 0.0)
+    settler_ = std::make_unique<plant::Integrator>(*model_, plant::IntegratorOptions{});
   samples_.resize(unit_.points.size());
   u_.assign(layout.inputs.size(), 0.0);
   u_prev_ = u_;
@@ -142,12 +158,18 @@ bool UnitPipeline::read_inputs(std::uint32_t& flags) {
   for (auto& b : inputs_) {
     if (b.point >= 0) {
       const auto& s = samples_[static_cast<std::size_t>(b.point)];
-      if (s.quality == modbus::PointQuality::kGood) {
-        b.value = b.to_model.apply(s.value);
+      const double v = b.to_model.apply(s.value);
+      const bool good = s.quality == modbus::PointQuality::kGood;
+      const bool refused = good && !usable(v, b.min, b.max);
+      if (good)
+        note_refusal(b.refusing, refused, unit_.points[static_cast<std::size_t>(b.point)].name, v);
+      if (good && !refused) {
+        b.value = v;
         b.have = true;
       } else if (b.have) {
         flags |= dds::kFlagInputHeld;  // zero-order hold of the last good value
       }
+      if (refused) ++guards_.inputs_refused;
     }
     if (!b.have) ready = false;
     u_[b.input] = b.value;
@@ -157,13 +179,64 @@ bool UnitPipeline::read_inputs(std::uint32_t& flags) {
 
 void UnitPipeline::build_measurements() {
   for (std::size_t i = 0; i < measured_.size(); ++i) {
-    const auto& b = measured_[i];
+    auto& b = measured_[i];
     const auto& s = samples_[b.point];
+    const double v = b.to_model.apply(s.value);
+    const bool good = s.quality == modbus::PointQuality::kGood;
+    const bool refused = good && !usable(v, b.min, b.max);
+    if (good) note_refusal(b.refusing, refused, unit_.points[b.point].name, v);
+    if (refused) ++guards_.measurements_refused;
     z_[i] = est::Measurement{.output = b.output,
-                             .value = b.to_model.apply(s.value),
+                             .value = refused ? 0.0 : v,
                              .variance = b.variance,
-                             .available = s.quality == modbus::PointQuality::kGood};
+                             .available = good && !refused};
   }
+}
+
+// Logs the start and the end of a run of refused samples of one point, not every cycle.
+void UnitPipeline::note_refusal(bool& refusing, bool refused, const std::string& point,
+                                double value) {
+  if (refused == refusing) return;
+  refusing = refused;
+  if (refused)
+    log_->warn(
+        "unit {}: point {}: value {} (model units) not finite or outside the model's "
+        "range: not used",
+        unit_.id, point, value);
+  else
+    log_->info("unit {}: point {}: values usable again", unit_.id, point);
+}
+
+// The first state: the configuration's initial values where it gives them, otherwise the
+// model's own guess at the first inputs and measurements (or the layout's defaults), settled
+// for estimator.settle_s model seconds at the first inputs.
+void UnitPipeline::initialize(std::uint32_t& flags) {
+  std::fill(guess_y_.begin(), guess_y_.end(), std::numeric_limits<double>::quiet_NaN());
+  for (const auto& b : measured_) {
+    const auto& s = samples_[b.point];
+    const double v = b.to_model.apply(s.value);
+    if (s.quality == modbus::PointQuality::kGood && usable(v, b.min, b.max)) guess_y_[b.output] = v;
+  }
+  const bool guessed = model_->initial_guess(u_, guess_y_, guess_x_);
+  for (std::size_t i = 0; i < guess_x_.size(); ++i)
+    if (!guessed || configured_x0_[i]) guess_x_[i] = x0_[i];
+  if (settler_) {
+    std::vector<double>& x = guess_x_;
+    if (!settler_->step(x, u_, unit_.estimator.settle_s, {}).ok())
+      log_->warn("unit {}: the model did not settle from its initial guess: {}", unit_.id,
+                 settler_->last_error());
+  }
+  // Bad-data guard: the filter never starts from a non-finite guess (a failed settle or guess).
+  if (!std::all_of(guess_x_.begin(), guess_x_.end(), [](double v) { return std::isfinite(v); })) {
+    log_->warn("unit {}: the initial guess is not finite; starting from the defaults", unit_.id);
+    std::copy(x0_.begin(), x0_.end(), guess_x_.begin());
+  }
+  ekf_->reset(guess_x_, std0_);
+  initialized_ = true;
+  have_prev_ = false;
+  flags |= dds::kFlagColdStart;
+  log_->info("unit {}: estimator started{}", unit_.id,
+             guessed ? " from the model's guess at the measured conditions" : "");
 }
 
 void UnitPipeline::fault_hooks(std::uint64_t cycle) {
@@ -184,13 +257,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   std::uint32_t flags = 0;
   const bool inputs_ready = read_inputs(flags);
 
-  if (!initialized_ && inputs_ready) {
-    ekf_->reset(x0_, std0_);
-    initialized_ = true;
-    have_prev_ = false;
-    flags |= dds::kFlagColdStart;
-    log_->info("unit {}: estimator started", unit_.id);
-  }
+  if (!initialized_ && inputs_ready) initialize(flags);
   if (initialized_) {
     out.ran_estimator = true;
     if (have_prev_) {
@@ -243,8 +310,10 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
   const plant::ModelLayout& layout = model_->layout();
   if (estimates_valid) {
     for (std::size_t i = 0; i < y_.size(); ++i) {
+      const bool poison = i == 0 && hooks_.nan_output_at_cycle != 0 &&
+                          cycle == hooks_.nan_output_at_cycle;  // test hook
       publisher_->publish(dds::VirtualSensorSample{.name = layout.outputs[i].name,
-                                                   .value = y_[i],
+                                                   .value = poison ? std::nan("") : y_[i],
                                                    .sigma = sigma_[i],
                                                    .eng_unit = layout.outputs[i].unit,
                                                    .quality = quality,
@@ -287,7 +356,7 @@ void UnitPipeline::publish_health(std::int64_t stamp_ns, std::uint64_t cycle,
                         .overruns = overruns_,
                         .degraded_cycles = degraded_cycles_,
                         .gate_rejections = c.gate_rejections,
-                        .numerical_resets = c.numerical_resets,
+                        .numerical_resets = c.numerical_resets + c.covariance_resets,
                         .quality = quality,
                         .modbus_connected = device_.connected,
                         .modbus_polls_ok = device_.polls_ok,

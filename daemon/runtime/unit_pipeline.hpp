@@ -30,6 +30,18 @@ namespace hvac_twin::runtime {
 struct FaultHooks {
   std::uint64_t hang_at_cycle = 0;        // this cycle blocks until stop(); 0 = never
   std::int64_t extra_cycle_delay_ns = 0;  // added after predict in every cycle (forces overruns)
+  std::uint64_t nan_output_at_cycle = 0;  // this cycle hands the publisher a NaN for the first
+                                          // model output (the publisher's guard must drop it)
+};
+
+// Bad-data guards between the poller and the filter. The poller already refuses values that are
+// not finite or outside the point's configured range (OUT_OF_RANGE); the pipeline checks again
+// after the conversion to model units, against the model signal's physical range (a point's
+// configured range may be wider, and a conversion may overflow). A refused input holds its last
+// good value (flag "input held"); a refused measurement is not offered to the filter.
+struct GuardCounters {
+  std::uint64_t inputs_refused = 0;        // GOOD input samples refused, one per cycle and input
+  std::uint64_t measurements_refused = 0;  // GOOD measured samples refused, per cycle and point
 };
 
 struct CycleOutcome {
@@ -55,24 +67,31 @@ class UnitPipeline {
   [[nodiscard]] const std::string& id() const { return unit_.id; }
   [[nodiscard]] std::int64_t wall_period_ns() const { return wall_period_ns_; }
   [[nodiscard]] const est::Ekf& filter() const { return *ekf_; }
+  [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
+  [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
  private:
   struct InputBinding {
     std::size_t input = 0;  // model input index
     long point = -1;        // point index, -1: the model default feeds it
     config::Conversion to_model;
-    double value = 0.0;  // last good value [model unit]
+    double min = 0.0, max = 0.0;  // the model input's physical range [model unit]
+    double value = 0.0;           // last good value [model unit]
     bool have = false;
+    bool refusing = false;  // the last GOOD sample was refused (logged once per episode)
   };
   struct MeasuredBinding {
     std::size_t point = 0;
     std::size_t output = 0;
     config::Conversion to_model;
-    double variance = 0.0;  // [model unit²]
+    double min = 0.0, max = 0.0;  // the model output's physical range [model unit]
+    double variance = 0.0;        // [model unit²]
+    bool refusing = false;
   };
 
   bool read_inputs(std::uint32_t& flags);
   void build_measurements();
+  void note_refusal(bool& refusing, bool refused, const std::string& point, double value);
   void publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                std::uint32_t flags, bool estimates_valid);
   void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
@@ -92,7 +111,12 @@ class UnitPipeline {
   std::unique_ptr<modbus::Poller> poller_;
   std::unique_ptr<dds::UnitPublisher> publisher_;
 
+  void initialize(std::uint32_t& flags);
+
   std::vector<double> x0_, std0_;
+  std::vector<bool> configured_x0_;  // initial_state given by the configuration (kept as is)
+  std::vector<double> guess_x_, guess_y_;
+  std::unique_ptr<plant::Integrator> settler_;  // plain integrator for estimator.settle_s
   std::vector<InputBinding> inputs_;
   std::vector<MeasuredBinding> measured_;
   std::vector<modbus::PointSample> samples_;
@@ -104,6 +128,7 @@ class UnitPipeline {
   bool initialized_ = false;
   bool have_prev_ = false;
   std::atomic<bool> stopping_{false};
+  GuardCounters guards_;
   std::uint64_t overruns_ = 0;
   std::uint64_t degraded_cycles_ = 0;
   std::int64_t cycle_ns_ = 0;
