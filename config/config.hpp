@@ -73,18 +73,33 @@ struct ModelConfig {
 //  kConstrainedEnkf: ensemble Kalman filter, members projected onto the constraints
 enum class EstimatorType { kEkf, kConstrainedEkf, kConstrainedEnkf };
 
+// Refrigerant leak detection (models with an augmented "leak_rate" state): a one-sided CUSUM on
+// the standardised leak-rate estimate, one decision per interval_s of judgeable operation.
+struct LeakDetectionConfig {
+  double interval_s = 1800.0;                 // judgeable model time per decision [s]
+  double design_shift_sigma = 2.0;            // the leak size (in sigma) found quickest
+  double false_alarm_interval_days = 3650.0;  // designed mean time between false alarms [days]
+  double warm_up_s = 3600.0;                  // no decision this long after a (cold) start [s]
+  double startup_s = 900.0;                   // held this long after a compressor start [s]
+  double min_compressor_speed_hz = 5.0;       // below: the compressor is off [Hz]
+  double max_starts_per_hour = 3.0;           // more starts in the last hour: cycling, held
+};
+
 struct EstimatorConfig {
   EstimatorType type = EstimatorType::kConstrainedEkf;
   int ensemble_members = 32;  // constrained_enkf: ensemble size, 4..1000
   int threads = 2;            // constrained_enkf: worker threads (the cycle thread included)
-  double period_s = 10.0;   // model time advanced per cycle [s]
-  double deadline_s = 1.0;  // wall-time budget of one cycle [s]; an overrun degrades the cycle;
-                            // <= period_s / runtime.time_scale and < runtime.hang_timeout_s
-  double nis_gate = 10.83;  // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
+  double period_s = 10.0;     // model time advanced per cycle [s]
+  double deadline_s = 1.0;    // wall-time budget of one cycle [s]; an overrun degrades the cycle;
+                              // <= period_s / runtime.time_scale and < runtime.hang_timeout_s
+  double nis_gate = 10.83;    // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
   int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty;
                                        // most points rejected this often resets the covariance
   double settle_s = 0.0;  // model seconds the model runs at the first inputs before filtering
                           // starts from its initial guess [s]
+  int checkpoint_every_cycles = 60;  // the whole filter state is saved to state_directory every
+                                     // this many cycles; 0: never (always a cold start)
+  LeakDetectionConfig leak_detection;
   // Per state, in the state's unit; a state not listed takes the model's StateInfo default
   // (process_noise, initial, initial_std). Names are states of the unit's model.
   std::map<std::string, double> process_noise;  // state -> random-walk intensity, >= 0

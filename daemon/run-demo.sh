@@ -19,7 +19,7 @@ shown='.'  # every line
 if grep -q '"heat_pump_r32"' "$config"; then
   sim_args+=(--set cond_ua_air=700)  # the truth's outdoor coil is 7 % fouled
   shown=' (condenser_outlet_pressure|valve_inlet_enthalpy|superheat|subcooling|cooling_capacity'
-  shown+='|compressor_power|cop|charge|leak_rate|outdoor_coil_fouling) | health '
+  shown+="|compressor_power|cop|charge|leak_rate|outdoor_coil_fouling) | health | leak "
 fi
 
 pids=()
@@ -37,9 +37,9 @@ sleep 0.5
 pids+=($!)
 
 echo "hvac-twin demo: $(basename "$config"), simulated plant on Modbus 127.0.0.1, DDS domain 0 on lo."
-echo "Each line is a DDS sample: virtual sensors (value ± 1 sigma), health. Ctrl-C stops."
+echo "Each line is a DDS sample: virtual sensors (value ± 1 sigma), health, leak diagnosis. Ctrl-C stops."
 echo "Logs and the simulated truth: $logs"
 echo
-echo_args=(--domain 0 --format text --topics virtual_sensor,estimator_health)
+echo_args=(--domain 0 --format text --topics virtual_sensor,estimator_health,leak_diagnostic)
 if [ "$seconds" != 0 ]; then echo_args+=(--duration "$seconds"); fi
 "$build/io/dds/hvac-twin-echo" "${echo_args[@]}" | grep --line-buffered -E "$shown"

@@ -127,6 +127,25 @@ ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& mode
   return out;
 }
 
+namespace {
+
+void read_leak_detection(const Ref& ref, Errors& errors, LeakDetectionConfig& out) {
+  if (!ref.present()) return;
+  ObjectReader r(ref, errors);
+  r.number("interval_s", out.interval_s, positive(kMaxPeriodS), false, "s");
+  r.number("design_shift_sigma", out.design_shift_sigma, positive(100.0));
+  r.number("false_alarm_interval_days", out.false_alarm_interval_days, positive(1e6), false,
+           "days");
+  r.number("warm_up_s", out.warm_up_s, closed(0.0, 30.0 * kMaxPeriodS), false, "s");
+  r.number("startup_s", out.startup_s, closed(0.0, kMaxPeriodS), false, "s");
+  r.number("min_compressor_speed_hz", out.min_compressor_speed_hz, closed(0.0, 1000.0), false,
+           "Hz");
+  r.number("max_starts_per_hour", out.max_starts_per_hour, positive(3600.0));
+  r.finish();
+}
+
+}  // namespace
+
 EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorContext& context) {
   EstimatorConfig e;
   ObjectReader r(ref, errors);
@@ -141,6 +160,8 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
            std::span<const EstimatorType>(kEstimatorTypes));
   r.integer("ensemble_members", e.ensemble_members, 4, 1000);
   r.integer("threads", e.threads, 1, 64);
+  r.integer("checkpoint_every_cycles", e.checkpoint_every_cycles, 0, 1'000'000);
+  read_leak_detection(r.get("leak_detection"), errors, e.leak_detection);
 
   const plant::ModelLayout* layout = context.layout;
   const auto states = layout ? names_of(layout->states) : std::vector<std::string>{};

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "daemon/estimation/ekf.hpp"
+#include "daemon/estimation/enkf.hpp"
 #include "daemon/runtime/clock.hpp"
 #include "plant_models/catalog.hpp"
 
@@ -48,6 +50,26 @@ bool usable(double value, double min, double max) {
 double lookup(const std::map<std::string, double>& m, const std::string& key, double fallback) {
   const auto it = m.find(key);
   return it == m.end() ? fallback : it->second;
+}
+
+// The filter estimator.type selects, with the options the configuration sets.
+std::unique_ptr<est::Estimator> make_filter(const plant::ContinuousModel& model,
+                                            const config::EstimatorConfig& c,
+                                            std::span<const double> process_noise,
+                                            std::size_t measurements) {
+  if (c.type == config::EstimatorType::kConstrainedEnkf) {
+    est::EnkfOptions opt;
+    opt.members = static_cast<std::size_t>(c.ensemble_members);
+    opt.threads = static_cast<std::size_t>(c.threads);
+    opt.nis_gate = c.nis_gate;
+    opt.max_consecutive_rejections = c.max_consecutive_rejections;
+    return std::make_unique<est::ConstrainedEnkf>(model, process_noise, measurements, opt);
+  }
+  est::EkfOptions opt;
+  opt.nis_gate = c.nis_gate;
+  opt.max_consecutive_rejections = c.max_consecutive_rejections;
+  opt.constrained = c.type == config::EstimatorType::kConstrainedEkf;
+  return std::make_unique<est::Ekf>(model, process_noise, measurements, opt);
 }
 
 }  // namespace
@@ -110,10 +132,10 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
     measured_.push_back(b);
   }
 
-  est::EkfOptions opt;
-  opt.nis_gate = unit_.estimator.nis_gate;
-  opt.max_consecutive_rejections = unit_.estimator.max_consecutive_rejections;
-  ekf_ = std::make_unique<est::Ekf>(*model_, q, measured_.size(), opt);
+  if (measured_.size() > 64)  // fused_points is a 64-bit mask on the wire
+    throw std::invalid_argument("at most 64 measured points per unit");
+  filter_ = make_filter(*model_, unit_.estimator, q, measured_.size());
+  bind_leak_detection(unit_.estimator.leak_detection);
 
   guess_x_.assign(layout.states.size(), 0.0);
   guess_y_.assign(layout.outputs.size(), 0.0);
@@ -134,9 +156,9 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
         log_->log(bad ? spdlog::level::warn : spdlog::level::info, "unit {}: modbus {}:{}: {}",
                   unit_.id, unit_.modbus.host, unit_.modbus.port, e.message);
       });
-  publisher_ =
-      std::make_unique<dds::UnitPublisher>(participant, config.dds.topic_prefix, site_, unit_.id,
-                                           std::chrono::nanoseconds(wall_period_ns_));
+  publisher_ = std::make_unique<dds::UnitPublisher>(
+      participant, config.dds.topic_prefix, site_, unit_.id,
+      std::chrono::nanoseconds(wall_period_ns_), leak_ != nullptr);
 }
 
 UnitPipeline::~UnitPipeline() {
@@ -231,7 +253,8 @@ void UnitPipeline::initialize(std::uint32_t& flags) {
     log_->warn("unit {}: the initial guess is not finite; starting from the defaults", unit_.id);
     std::copy(x0_.begin(), x0_.end(), guess_x_.begin());
   }
-  ekf_->reset(guess_x_, std0_);
+  filter_->reset(guess_x_, std0_);
+  model_time_s_ = 0.0;
   initialized_ = true;
   have_prev_ = false;
   flags |= dds::kFlagColdStart;
@@ -263,28 +286,30 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     if (have_prev_) {
       // dt from the tick stamps: skipped ticks advance the model by more than one period.
       const double dt = period_s_ * static_cast<double>(tick.ticks_since_last);
-      const est::StepStatus st = ekf_->predict(u_prev_, dt);
+      const est::StepStatus st = filter_->predict(u_prev_, dt);
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
       if (st == est::StepStatus::kModelError) flags |= dds::kFlagPredictOnly;
+      model_time_s_ += dt;
     }
     fault_hooks(tick.index);
-    bool fused_any = false;
+    fused_points_ = 0;
     if (monotonic_ns() - start > deadline_ns_) {
       flags |= dds::kFlagDeadlineOverrun;  // out of time: predict only
     } else {
       build_measurements();
-      const est::StepStatus st = ekf_->update(z_, u_, reports_);
+      const est::StepStatus st = filter_->update(z_, u_, reports_);
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
-      for (const auto& r : reports_)
-        fused_any = fused_any || r.fused;
+      for (std::size_t i = 0; i < reports_.size(); ++i)
+        if (reports_[i].fused) fused_points_ |= std::uint64_t{1} << i;
+      if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;
     }
-    if (!fused_any) flags |= dds::kFlagPredictOnly;
+    if (fused_points_ == 0) flags |= dds::kFlagPredictOnly;
     u_prev_ = u_;
     have_prev_ = true;
   }
 
   const bool estimates_valid =
-      initialized_ && ekf_->output_estimates(u_, y_, sigma_) == plant::kModelOk;
+      initialized_ && filter_->output_estimates(u_, y_, sigma_) == plant::kModelOk;
   if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;
   out.quality = !estimates_valid ? dds::EstimateQuality::kNotReady
                 : flags & (dds::kFlagPredictOnly | dds::kFlagInputHeld | dds::kFlagNumericalReset |
@@ -294,6 +319,10 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   if (out.quality == dds::EstimateQuality::kDegraded) ++degraded_cycles_;
   note_quality(out.quality, flags);
   publish(stamp, tick.index, out.quality, flags, estimates_valid);
+  if (leak_) {
+    step_leak_detector(out.quality, estimates_valid);
+    publish_leak(stamp, tick.index, out.quality, estimates_valid);
+  }
 
   const std::int64_t end = monotonic_ns();
   out.cycle_ns = end - start;
@@ -318,6 +347,7 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
                                                    .eng_unit = layout.outputs[i].unit,
                                                    .quality = quality,
                                                    .flags = flags,
+                                                   .fused_points = fused_points_,
                                                    .timestamp_ns = stamp_ns,
                                                    .cycle = cycle});
     }
@@ -348,7 +378,7 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
 
 void UnitPipeline::publish_health(std::int64_t stamp_ns, std::uint64_t cycle,
                                   dds::EstimateQuality quality) {
-  const auto& c = ekf_->counters();
+  const auto& c = filter_->counters();
   publisher_->publish(
       dds::HealthSample{.cycle = cycle,
                         .cycle_time_ms = static_cast<double>(cycle_ns_) * 1e-6,

@@ -1,5 +1,6 @@
 // One unit's estimator cycle: Modbus snapshot -> inputs -> predict -> (deadline check) -> gated
-// update -> virtual sensors with delta-method sigma -> DDS samples.
+// (constrained) update -> virtual sensors with delta-method sigma -> leak detector -> DDS samples.
+// The filter is the one the configuration selects (estimator.type) behind est::Estimator.
 //
 // Everything is built and sized in the constructor (start-up: allocates, throws on a bad model
 // or a DDS/Modbus set-up failure); run_cycle() never allocates and never throws.
@@ -17,11 +18,13 @@
 
 #include "config/config.hpp"
 #include "config/units.hpp"
-#include "daemon/estimation/ekf.hpp"
+#include "daemon/estimation/estimator.hpp"
+#include "daemon/estimation/leak_detector.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "io/dds/participant.hpp"
 #include "io/dds/publisher.hpp"
 #include "io/modbus/poller.hpp"
+#include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
 
 namespace hvac_twin::runtime {
@@ -66,7 +69,9 @@ class UnitPipeline {
 
   [[nodiscard]] const std::string& id() const { return unit_.id; }
   [[nodiscard]] std::int64_t wall_period_ns() const { return wall_period_ns_; }
-  [[nodiscard]] const est::Ekf& filter() const { return *ekf_; }
+  [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
+  // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
+  [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
   [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
   [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
@@ -94,6 +99,10 @@ class UnitPipeline {
   void note_refusal(bool& refusing, bool refused, const std::string& point, double value);
   void publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                std::uint32_t flags, bool estimates_valid);
+  void bind_leak_detection(const config::LeakDetectionConfig& c);
+  void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
+  void publish_leak(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
+                    bool estimates_valid);
   void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
   void note_quality(dds::EstimateQuality quality, std::uint32_t flags);
   void fault_hooks(std::uint64_t cycle);
@@ -107,7 +116,7 @@ class UnitPipeline {
   std::int64_t deadline_ns_;
 
   std::unique_ptr<plant::ContinuousModel> model_;
-  std::unique_ptr<est::Ekf> ekf_;
+  std::unique_ptr<est::Estimator> filter_;
   std::unique_ptr<modbus::Poller> poller_;
   std::unique_ptr<dds::UnitPublisher> publisher_;
 
@@ -124,6 +133,19 @@ class UnitPipeline {
   std::vector<double> u_, u_prev_, y_, sigma_;
   std::vector<est::Measurement> z_;
   std::vector<est::MeasurementReport> reports_;
+
+  std::uint64_t fused_points_ = 0;  // bit i: measured_[i] fused this cycle
+
+  // Leak detection (models with an augmented leak_rate state, a charge output and a compressor
+  // speed input).
+  std::unique_ptr<est::LeakDetector> leak_;
+  std::size_t leak_output_ = 0, charge_output_ = 0, speed_input_ = 0;
+  double nameplate_charge_ = 0.0;      // [kg], the charge state's upper bound
+  double false_alarm_days_ = 0.0;      // designed, published with every diagnostic
+  double model_time_s_ = 0.0;          // model time since the filter started [s]
+  std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began
+  std::int64_t leak_since_ns_ = 0;     // wall time of the first LEAK in this episode
+  est::LeakState last_leak_state_ = est::LeakState::kNormal;
 
   bool initialized_ = false;
   bool have_prev_ = false;

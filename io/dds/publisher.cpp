@@ -13,11 +13,12 @@
 namespace hvac_twin::dds {
 
 struct UnitPublisher::Wire {
-  detail::Entity topics[3];   // declared before the writers: destroyed after them
-  detail::Entity writers[3];  // indexed by Topic
+  detail::Entity topics[kNumTopics];   // declared before the writers: destroyed after them
+  detail::Entity writers[kNumTopics];  // indexed by Topic
   hvac_twin_VirtualSensor virtual_sensor{};
   hvac_twin_Observation observation{};
   hvac_twin_EstimatorHealth health{};
+  hvac_twin_LeakDiagnostic leak{};
 
   dds_entity_t writer(Topic topic) const noexcept { return writers[static_cast<int>(topic)].get(); }
 };
@@ -57,7 +58,7 @@ std::string_view to_string(PublishStatus status) noexcept {
 
 UnitPublisher::UnitPublisher(Participant& participant, std::string_view topic_prefix,
                              std::string_view site, std::string_view unit,
-                             std::chrono::nanoseconds period)
+                             std::chrono::nanoseconds period, bool leak_diagnostic)
     : wire_(std::make_unique<Wire>()) {
   if (period <= std::chrono::nanoseconds::zero()) {
     throw std::invalid_argument("DDS publisher: the cycle period must be positive");
@@ -74,10 +75,13 @@ UnitPublisher::UnitPublisher(Participant& participant, std::string_view topic_pr
   (void)detail::copy_bounded(w.observation.unit, unit, true);
   (void)detail::copy_bounded(w.health.site, site, true);
   (void)detail::copy_bounded(w.health.unit, unit, true);
+  (void)detail::copy_bounded(w.leak.site, site, true);
+  (void)detail::copy_bounded(w.leak.unit, unit, true);
 
   const QosPtr topic_qos = make_state_qos(kAnyPeriod);  // see make_state_qos
   const QosPtr writer_qos = make_state_qos(period);
   for (const Topic topic : kAllTopics) {
+    if (topic == Topic::kLeakDiagnostic && !leak_diagnostic) continue;
     const std::string name = topic_name(topic_prefix, topic);
     const int i = static_cast<int>(topic);
     w.topics[i] =
@@ -123,6 +127,7 @@ PublishStatus UnitPublisher::publish(const VirtualSensorSample& s) noexcept {
   w.sigma = s.sigma;
   w.quality = detail::to_wire(s.quality);
   w.flags = s.flags;
+  w.fused_points = s.fused_points;
   w.timestamp_ns = s.timestamp_ns;
   w.cycle = s.cycle;
   return write(wire_->writer(Topic::kVirtualSensor), &w, s.timestamp_ns);
@@ -179,9 +184,44 @@ PublishStatus UnitPublisher::publish(const HealthSample& s) noexcept {
   return write(wire_->writer(Topic::kEstimatorHealth), &w, s.timestamp_ns);
 }
 
+PublishStatus UnitPublisher::publish(const LeakDiagnosticSample& s) noexcept {
+  const double values[] = {
+      s.charge,          s.charge_sigma, s.nameplate_charge, s.leak_rate,
+      s.leak_rate_sigma, s.cusum,        s.threshold,        s.false_alarm_interval_days};
+  for (const double v : values) {
+    if (!finite(v)) return reject(PublishStatus::kNonFinite);
+  }
+  if (s.charge_sigma < 0.0 || s.leak_rate_sigma < 0.0 || s.threshold < 0.0 ||
+      s.false_alarm_interval_days < 0.0) {
+    return reject(PublishStatus::kInvalidValue);
+  }
+  if (s.timestamp_ns < 0 || s.suspect_since_ns < 0 || s.leak_since_ns < 0) {
+    return reject(PublishStatus::kInvalidTimestamp);
+  }
+  hvac_twin_LeakDiagnostic& w = wire_->leak;
+  w.state = detail::to_wire(s.state);
+  w.hold = detail::to_wire(s.hold);
+  w.charge = s.charge;
+  w.charge_sigma = s.charge_sigma;
+  w.nameplate_charge = s.nameplate_charge;
+  w.leak_rate = s.leak_rate;
+  w.leak_rate_sigma = s.leak_rate_sigma;
+  w.cusum = s.cusum;
+  w.threshold = s.threshold;
+  w.false_alarm_interval_days = s.false_alarm_interval_days;
+  w.decisions = s.decisions;
+  w.suspect_since_ns = s.suspect_since_ns;
+  w.leak_since_ns = s.leak_since_ns;
+  w.quality = detail::to_wire(s.quality);
+  w.timestamp_ns = s.timestamp_ns;
+  w.cycle = s.cycle;
+  return write(wire_->writer(Topic::kLeakDiagnostic), &w, s.timestamp_ns);
+}
+
 PublishStatus UnitPublisher::assert_liveliness() noexcept {
   PublishStatus status = PublishStatus::kOk;
   for (const Topic topic : kAllTopics) {
+    if (wire_->writer(topic) == 0) continue;  // not created for this unit
     const dds_return_t rc = dds_assert_liveliness(wire_->writer(topic));
     if (rc != DDS_RETCODE_OK) {
       dds_errors_.fetch_add(1, std::memory_order_relaxed);

@@ -1,6 +1,7 @@
-// UnitPublisher: the DDS writers of one (site, unit). Creates the three state topics
-// "<topic_prefix>/virtual_sensor", "<topic_prefix>/observation" and
-// "<topic_prefix>/estimator_health" with the state QoS (io/dds/qos.hpp) and one writer each.
+// UnitPublisher: the DDS writers of one (site, unit). Creates the four state topics
+// "<topic_prefix>/virtual_sensor", "<topic_prefix>/observation",
+// "<topic_prefix>/estimator_health" and "<topic_prefix>/leak_diagnostic" with the state QoS
+// (io/dds/qos.hpp) and one writer each.
 //
 // Liveliness is MANUAL_BY_TOPIC: a writer is alive while it writes. The unit's cycle publishes
 // its virtual sensors, observations and health after every completed cycle; a topic with nothing
@@ -57,8 +58,11 @@ class UnitPublisher {
   // cycle period (EstimatorConfig::period_s / RuntimeConfig::time_scale), > 0.
   // Throws std::invalid_argument for a bad site, unit, prefix or period, std::runtime_error
   // naming the topic if Cyclone refuses a topic or writer.
+  // leak_diagnostic: also create the leak_diagnostic writer (units whose model estimates a leak
+  // rate); without it publish(LeakDiagnosticSample) returns kDdsError and nothing is written.
   UnitPublisher(Participant& participant, std::string_view topic_prefix, std::string_view site,
-                std::string_view unit, std::chrono::nanoseconds period);
+                std::string_view unit, std::chrono::nanoseconds period,
+                bool leak_diagnostic = true);
   ~UnitPublisher();
   UnitPublisher(const UnitPublisher&) = delete;
   UnitPublisher& operator=(const UnitPublisher&) = delete;
@@ -70,7 +74,8 @@ class UnitPublisher {
   PublishStatus publish(const ObservationSample& sample) noexcept;
   // Also fills the wire field publish_rejections from stats().rejected().
   PublishStatus publish(const HealthSample& sample) noexcept;
-  // Asserts liveliness of all three writers without writing (a cycle with nothing to publish on
+  PublishStatus publish(const LeakDiagnosticSample& sample) noexcept;
+  // Asserts liveliness of all its writers without writing (a cycle with nothing to publish on
   // a topic). Does not revive a writer whose liveliness was already lost: write a sample for
   // that. Returns kDdsError if Cyclone refuses. Cycle thread only.
   PublishStatus assert_liveliness() noexcept;

@@ -19,13 +19,15 @@ bool TopicSet::contains(Topic topic) const noexcept {
       return observation;
     case Topic::kEstimatorHealth:
       return estimator_health;
+    case Topic::kLeakDiagnostic:
+      return leak_diagnostic;
   }
   return false;
 }
 
 struct Subscriber::Readers {
-  detail::Entity topics[3];  // indexed by Topic; empty if not subscribed
-  detail::Entity readers[3];
+  detail::Entity topics[kNumTopics];  // indexed by Topic; empty if not subscribed
+  detail::Entity readers[kNumTopics];
   detail::Entity waitset;  // declared last: detached and deleted first
 };
 
@@ -41,6 +43,7 @@ VirtualSensorRecord convert(const hvac_twin_VirtualSensor& w, dds_time_t source_
   r.eng_unit = detail::view_bounded(w.eng_unit);
   r.quality = detail::from_wire(w.quality);
   r.flags = w.flags;
+  r.fused_points = w.fused_points;
   r.timestamp_ns = w.timestamp_ns;
   r.cycle = w.cycle;
   r.source_timestamp_ns = source_ts;
@@ -85,6 +88,30 @@ HealthRecord convert(const hvac_twin_EstimatorHealth& w, dds_time_t source_ts) {
   r.modbus_reconnects = w.modbus_reconnects;
   r.modbus_last_error = detail::view_bounded(w.modbus_last_error);
   r.timestamp_ns = w.timestamp_ns;
+  r.source_timestamp_ns = source_ts;
+  return r;
+}
+
+LeakDiagnosticRecord convert(const hvac_twin_LeakDiagnostic& w, dds_time_t source_ts) {
+  LeakDiagnosticRecord r;
+  r.site = detail::view_bounded(w.site);
+  r.unit = detail::view_bounded(w.unit);
+  r.state = detail::from_wire(w.state);
+  r.hold = detail::from_wire(w.hold);
+  r.charge = w.charge;
+  r.charge_sigma = w.charge_sigma;
+  r.nameplate_charge = w.nameplate_charge;
+  r.leak_rate = w.leak_rate;
+  r.leak_rate_sigma = w.leak_rate_sigma;
+  r.cusum = w.cusum;
+  r.threshold = w.threshold;
+  r.false_alarm_interval_days = w.false_alarm_interval_days;
+  r.decisions = w.decisions;
+  r.suspect_since_ns = w.suspect_since_ns;
+  r.leak_since_ns = w.leak_since_ns;
+  r.quality = detail::from_wire(w.quality);
+  r.timestamp_ns = w.timestamp_ns;
+  r.cycle = w.cycle;
   r.source_timestamp_ns = source_ts;
   return r;
 }
@@ -181,6 +208,9 @@ std::ptrdiff_t Subscriber::take(std::vector<Record>& out) {
         break;
       case Topic::kEstimatorHealth:
         n = take_all<hvac_twin_EstimatorHealth>(reader, out, last_error_);
+        break;
+      case Topic::kLeakDiagnostic:
+        n = take_all<hvac_twin_LeakDiagnostic>(reader, out, last_error_);
         break;
     }
     if (n < 0) return -1;

@@ -31,6 +31,7 @@ struct VirtualSensorRecord {
   std::string eng_unit;
   EstimateQuality quality = EstimateQuality::kNotReady;
   std::uint32_t flags = 0;
+  std::uint64_t fused_points = 0;
   std::int64_t timestamp_ns = 0;
   std::uint64_t cycle = 0;
   std::int64_t source_timestamp_ns = 0;  // DDS source timestamp (equals timestamp_ns)
@@ -71,13 +72,20 @@ struct HealthRecord {
   std::int64_t source_timestamp_ns = 0;
 };
 
-using Record = std::variant<VirtualSensorRecord, ObservationRecord, HealthRecord>;
+struct LeakDiagnosticRecord : LeakDiagnosticSample {
+  std::string site, unit;
+  std::int64_t source_timestamp_ns = 0;
+};
+
+using Record =
+    std::variant<VirtualSensorRecord, ObservationRecord, HealthRecord, LeakDiagnosticRecord>;
 
 // Which topics to read.
 struct TopicSet {
   bool virtual_sensor = true;
   bool observation = true;
   bool estimator_health = true;
+  bool leak_diagnostic = true;
   bool contains(Topic topic) const noexcept;
 };
 

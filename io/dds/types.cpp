@@ -12,6 +12,8 @@ std::string_view topic_suffix(Topic topic) noexcept {
       return "observation";
     case Topic::kEstimatorHealth:
       return "estimator_health";
+    case Topic::kLeakDiagnostic:
+      return "leak_diagnostic";
   }
   return "unknown";
 }
@@ -58,6 +60,36 @@ std::string_view to_string(PointQuality quality) noexcept {
       return "DEVICE_EXCEPTION";
     case PointQuality::kOutOfRange:
       return "OUT_OF_RANGE";
+  }
+  return "UNKNOWN";
+}
+
+std::string_view to_string(LeakState state) noexcept {
+  switch (state) {
+    case LeakState::kNormal:
+      return "NORMAL";
+    case LeakState::kSuspect:
+      return "SUSPECT";
+    case LeakState::kLeak:
+      return "LEAK";
+  }
+  return "UNKNOWN";
+}
+
+std::string_view to_string(LeakHold hold) noexcept {
+  switch (hold) {
+    case LeakHold::kNone:
+      return "NONE";
+    case LeakHold::kWarmUp:
+      return "WARM_UP";
+    case LeakHold::kCompressorOff:
+      return "COMPRESSOR_OFF";
+    case LeakHold::kStartUp:
+      return "START_UP";
+    case LeakHold::kCycling:
+      return "CYCLING";
+    case LeakHold::kDegraded:
+      return "DEGRADED";
   }
   return "UNKNOWN";
 }

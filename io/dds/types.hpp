@@ -10,17 +10,24 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <string>
 #include <string_view>
 
 namespace hvac_twin::dds {
 
-// The three topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
+// The four topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
 // "hvac_twin/virtual_sensor" ('/' is legal in Cyclone DDS 0.10 topic names).
-enum class Topic : std::uint8_t { kVirtualSensor = 0, kObservation = 1, kEstimatorHealth = 2 };
+enum class Topic : std::uint8_t {
+  kVirtualSensor = 0,
+  kObservation = 1,
+  kEstimatorHealth = 2,
+  kLeakDiagnostic = 3,
+};
 inline constexpr Topic kAllTopics[] = {Topic::kVirtualSensor, Topic::kObservation,
-                                       Topic::kEstimatorHealth};
-// "virtual_sensor", "observation", "estimator_health". Never allocates.
+                                       Topic::kEstimatorHealth, Topic::kLeakDiagnostic};
+inline constexpr std::size_t kNumTopics = std::size(kAllTopics);
+// "virtual_sensor", "observation", "estimator_health", "leak_diagnostic". Never allocates.
 std::string_view topic_suffix(Topic topic) noexcept;
 // "<prefix>/<suffix>". Throws std::invalid_argument unless prefix matches [A-Za-z0-9_]+ (the
 // DdsConfig::topic_prefix rule). Allocates; creation time only.
@@ -60,9 +67,10 @@ struct VirtualSensorSample {
   double sigma = 0.0;         // 1-sigma standard deviation [eng_unit]; finite and >= 0
   std::string_view eng_unit;  // 0..32 bytes, e.g. "Pa", "degC"
   EstimateQuality quality = EstimateQuality::kNotReady;
-  std::uint32_t flags = 0;        // kFlag* bits
-  std::int64_t timestamp_ns = 0;  // CLOCK_REALTIME [ns], >= 0; also the DDS source timestamp
-  std::uint64_t cycle = 0;        // estimator cycle counter
+  std::uint32_t flags = 0;         // kFlag* bits
+  std::uint64_t fused_points = 0;  // bit i: the unit's i-th measured point was fused
+  std::int64_t timestamp_ns = 0;   // CLOCK_REALTIME [ns], >= 0; also the DDS source timestamp
+  std::uint64_t cycle = 0;         // estimator cycle counter
 };
 
 // One measured point in one cycle. Every double must be finite: for a point that was not read
@@ -101,11 +109,45 @@ struct HealthSample {
   std::int64_t timestamp_ns = 0;       // CLOCK_REALTIME [ns], >= 0
 };
 
+// Leak alarm state and why the detector is holding. Values match IDL LeakState / LeakHold.
+enum class LeakState : std::uint8_t { kNormal = 0, kSuspect = 1, kLeak = 2 };
+enum class LeakHold : std::uint8_t {
+  kNone = 0,
+  kWarmUp = 1,
+  kCompressorOff = 2,
+  kStartUp = 3,
+  kCycling = 4,
+  kDegraded = 5,
+};
+
+// The refrigerant charge and leak diagnosis of the publisher's unit, published every cycle.
+// Every double must be finite; sigmas, leak_rate, thresholds and intervals >= 0.
+struct LeakDiagnosticSample {
+  LeakState state = LeakState::kNormal;
+  LeakHold hold = LeakHold::kWarmUp;
+  double charge = 0.0;            // [kg]
+  double charge_sigma = 0.0;      // [kg]
+  double nameplate_charge = 0.0;  // [kg]
+  double leak_rate = 0.0;         // [g/h]
+  double leak_rate_sigma = 0.0;   // [g/h]
+  double cusum = 0.0;             // [sigma units]
+  double threshold = 0.0;         // [sigma units]
+  double false_alarm_interval_days = 0.0;
+  std::uint64_t decisions = 0;
+  std::int64_t suspect_since_ns = 0;  // CLOCK_REALTIME, 0: not in a SUSPECT/LEAK episode
+  std::int64_t leak_since_ns = 0;     // CLOCK_REALTIME, 0: no LEAK in this episode
+  EstimateQuality quality = EstimateQuality::kNotReady;
+  std::int64_t timestamp_ns = 0;  // CLOCK_REALTIME [ns], >= 0
+  std::uint64_t cycle = 0;
+};
+
 // Names used on the console and in JSON: the IDL enumerator without its prefix ("GOOD",
 // "NOT_READY", "COMM_FAIL", ...).
 // Out-of-range values (e.g. from a newer peer) give "UNKNOWN". Never allocates.
 std::string_view to_string(EstimateQuality quality) noexcept;
 std::string_view to_string(PointQuality quality) noexcept;
+std::string_view to_string(LeakState state) noexcept;  // "NORMAL", "SUSPECT", "LEAK"
+std::string_view to_string(LeakHold hold) noexcept;    // "NONE", "WARM_UP", "COMPRESSOR_OFF", ...
 // Name of one kFlag* bit ("predict_only", ...), or "" if the bit is not defined.
 std::string_view flag_name(std::uint32_t single_bit) noexcept;
 

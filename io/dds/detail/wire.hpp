@@ -27,6 +27,15 @@ static_assert(kFlagInputHeld == hvac_twin_VS_FLAG_INPUT_HELD);
 static_assert(kFlagColdStart == hvac_twin_VS_FLAG_COLD_START);
 static_assert(kFlagNumericalReset == hvac_twin_VS_FLAG_NUMERICAL_RESET);
 static_assert(kFlagDeadlineOverrun == hvac_twin_VS_FLAG_DEADLINE_OVERRUN);
+static_assert(static_cast<int>(LeakState::kNormal) == hvac_twin_LEAK_NORMAL);
+static_assert(static_cast<int>(LeakState::kSuspect) == hvac_twin_LEAK_SUSPECT);
+static_assert(static_cast<int>(LeakState::kLeak) == hvac_twin_LEAK_LEAK);
+static_assert(static_cast<int>(LeakHold::kNone) == hvac_twin_LEAK_HOLD_NONE);
+static_assert(static_cast<int>(LeakHold::kWarmUp) == hvac_twin_LEAK_HOLD_WARM_UP);
+static_assert(static_cast<int>(LeakHold::kCompressorOff) == hvac_twin_LEAK_HOLD_COMPRESSOR_OFF);
+static_assert(static_cast<int>(LeakHold::kStartUp) == hvac_twin_LEAK_HOLD_START_UP);
+static_assert(static_cast<int>(LeakHold::kCycling) == hvac_twin_LEAK_HOLD_CYCLING);
+static_assert(static_cast<int>(LeakHold::kDegraded) == hvac_twin_LEAK_HOLD_DEGRADED);
 // Bounded IDL strings are char[bound + 1]; the C++ limits must match the IDL bounds.
 static_assert(sizeof(hvac_twin_VirtualSensor::name) == kMaxNameLength + 1);
 static_assert(sizeof(hvac_twin_VirtualSensor::site) == kMaxNameLength + 1);
@@ -80,6 +89,18 @@ inline hvac_twin_EstimateQuality to_wire(EstimateQuality q) noexcept {
 inline hvac_twin_PointQuality to_wire(PointQuality q) noexcept {
   return static_cast<hvac_twin_PointQuality>(q);
 }
+inline hvac_twin_LeakState to_wire(LeakState s) noexcept {
+  return static_cast<hvac_twin_LeakState>(s);
+}
+inline hvac_twin_LeakHold to_wire(LeakHold h) noexcept {
+  return static_cast<hvac_twin_LeakHold>(h);
+}
+inline LeakState from_wire(hvac_twin_LeakState s) noexcept {
+  return static_cast<LeakState>(s);
+}
+inline LeakHold from_wire(hvac_twin_LeakHold h) noexcept {
+  return static_cast<LeakHold>(h);
+}
 inline EstimateQuality from_wire(hvac_twin_EstimateQuality q) noexcept {
   return static_cast<EstimateQuality>(q);
 }
@@ -96,6 +117,8 @@ inline const dds_topic_descriptor_t* descriptor(Topic topic) noexcept {
       return &hvac_twin_Observation_desc;
     case Topic::kEstimatorHealth:
       return &hvac_twin_EstimatorHealth_desc;
+    case Topic::kLeakDiagnostic:
+      return &hvac_twin_LeakDiagnostic_desc;
   }
   return nullptr;
 }

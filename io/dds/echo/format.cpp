@@ -42,6 +42,7 @@ Json to_json(const VirtualSensorRecord& r) {
               {"quality", to_string(r.quality)},
               {"flags", r.flags},
               {"flag_names", flag_names(r.flags)},
+              {"fused_points", r.fused_points},
               {"timestamp_ns", r.timestamp_ns},
               {"cycle", r.cycle}};
 }
@@ -82,6 +83,28 @@ Json to_json(const HealthRecord& r) {
               {"modbus_reconnects", r.modbus_reconnects},
               {"modbus_last_error", r.modbus_last_error},
               {"timestamp_ns", r.timestamp_ns}};
+}
+
+Json to_json(const LeakDiagnosticRecord& r) {
+  return Json{{"topic", "leak_diagnostic"},
+              {"site", r.site},
+              {"unit", r.unit},
+              {"state", to_string(r.state)},
+              {"hold", to_string(r.hold)},
+              {"charge", r.charge},
+              {"charge_sigma", r.charge_sigma},
+              {"nameplate_charge", r.nameplate_charge},
+              {"leak_rate", r.leak_rate},
+              {"leak_rate_sigma", r.leak_rate_sigma},
+              {"cusum", r.cusum},
+              {"threshold", r.threshold},
+              {"false_alarm_interval_days", r.false_alarm_interval_days},
+              {"decisions", r.decisions},
+              {"suspect_since_ns", r.suspect_since_ns},
+              {"leak_since_ns", r.leak_since_ns},
+              {"quality", to_string(r.quality)},
+              {"timestamp_ns", r.timestamp_ns},
+              {"cycle", r.cycle}};
 }
 
 // "HH:MM:SS" of a CLOCK_REALTIME timestamp in local time.
@@ -159,6 +182,20 @@ std::string to_text(const HealthRecord& r) {
   std::string text = written(line, n);
   if (!r.modbus_last_error.empty()) text += "  last error: " + r.modbus_last_error;
   return text;
+}
+
+std::string to_text(const LeakDiagnosticRecord& r) {
+  char line[512];
+  const int n = std::snprintf(
+      line, sizeof line,
+      "%s %-8s leak   %-7s charge %.3f ± %.3f kg (nameplate %.3f)  leak %.2f ± %.2f g/h  "
+      "CUSUM %.2f / %.2f  %s%s%s",
+      clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), std::string(to_string(r.state)).c_str(),
+      r.charge, r.charge_sigma, r.nameplate_charge, r.leak_rate, r.leak_rate_sigma, r.cusum,
+      r.threshold, std::string(to_string(r.quality)).c_str(),
+      r.hold == LeakHold::kNone ? "" : "  held: ",
+      r.hold == LeakHold::kNone ? "" : std::string(to_string(r.hold)).c_str());
+  return written(line, n);
 }
 
 }  // namespace

@@ -22,25 +22,40 @@ T parse_number(std::string_view option, std::string_view text) {
 }
 
 TopicSet parse_topics(std::string_view list) {
-  TopicSet set{false, false, false};
+  TopicSet set{false, false, false, false};
+  const auto select = [&set](Topic topic) {
+    switch (topic) {
+      case Topic::kVirtualSensor:
+        set.virtual_sensor = true;
+        break;
+      case Topic::kObservation:
+        set.observation = true;
+        break;
+      case Topic::kEstimatorHealth:
+        set.estimator_health = true;
+        break;
+      case Topic::kLeakDiagnostic:
+        set.leak_diagnostic = true;
+        break;
+    }
+  };
   while (!list.empty()) {
     const std::size_t comma = list.find(',');
     const std::string_view item = list.substr(0, comma);
-    if (item == "virtual_sensor") {
-      set.virtual_sensor = true;
-    } else if (item == "observation") {
-      set.observation = true;
-    } else if (item == "estimator_health") {
-      set.estimator_health = true;
+    const auto* match = std::find_if(std::begin(kAllTopics), std::end(kAllTopics),
+                                     [item](Topic t) { return topic_suffix(t) == item; });
+    if (match != std::end(kAllTopics)) {
+      select(*match);
     } else if (item == "all") {
       set = TopicSet{};
     } else {
       throw UsageError("--topics: unknown topic '" + std::string(item) +
-                       "' (virtual_sensor, observation, estimator_health, all)");
+                       "' (virtual_sensor, observation, estimator_health, leak_diagnostic, all)");
     }
     list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
   }
-  if (!set.virtual_sensor && !set.observation && !set.estimator_health) {
+  if (std::none_of(std::begin(kAllTopics), std::end(kAllTopics),
+                   [&set](Topic t) { return set.contains(t); })) {
     throw UsageError("--topics: no topic given");
   }
   return set;
@@ -164,10 +179,10 @@ Options:
   --interface NAME     network interface to use (default lo)
   --peer ADDR          unicast discovery peer; repeatable (default 127.0.0.1)
   --multicast          allow multicast discovery (default: off, unicast to the peers)
-  --topic-prefix P     topics are P/virtual_sensor, P/observation, P/estimator_health
-                       (default hvac_twin)
-  --topics LIST        comma-separated subset of virtual_sensor,observation,estimator_health
-                       (default all)
+  --topic-prefix P     topics are P/virtual_sensor, P/observation, P/estimator_health,
+                       P/leak_diagnostic (default hvac_twin)
+  --topics LIST        comma-separated subset of virtual_sensor, observation,
+                       estimator_health, leak_diagnostic (default all)
   --count N            exit after N samples
   --duration S         exit after S seconds
   --format json|text   json: one JSON object per sample with a "topic" field (default);

@@ -31,3 +31,40 @@ TEST_CASE("estimator.type selects the filter; the default is the constrained EKF
   j["units"][0]["estimator"]["ensemble_members"] = 2;
   require_single_error(load_json(j), "/units/0/estimator/ensemble_members", {"[4, 1000]"});
 }
+
+TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, defaults, errors",
+          "[config]") {
+  auto j = demo_json();
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    const auto& e = r.config->units[0].estimator;
+    CHECK(e.checkpoint_every_cycles == 60);
+    CHECK(e.leak_detection.interval_s == 1800.0);
+    CHECK(e.leak_detection.false_alarm_interval_days == 3650.0);
+  }
+  auto& est = j["units"][0]["estimator"];
+  est["checkpoint_every_cycles"] = 0;
+  est["leak_detection"] = {
+      {"interval_s", 600}, {"false_alarm_interval_days", 365}, {"max_starts_per_hour", 6}};
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    const auto& e = r.config->units[0].estimator;
+    CHECK(e.checkpoint_every_cycles == 0);
+    CHECK(e.leak_detection.interval_s == 600.0);
+    CHECK(e.leak_detection.false_alarm_interval_days == 365.0);
+    CHECK(e.leak_detection.max_starts_per_hour == 6.0);
+    CHECK(e.leak_detection.design_shift_sigma == 2.0);  // not given: the default
+  }
+  est["leak_detection"]["interval_s"] = -1;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/interval_s",
+                       {"(0, 86400]", "got -1"});
+  est["leak_detection"]["interval_s"] = 600;
+  est["leak_detection"]["intervall_s"] = 600;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/intervall_s",
+                       {"interval_s"});
+  est["leak_detection"].erase("intervall_s");
+  est["checkpoint_every_cycles"] = 1.5;
+  require_single_error(load_json(j), "/units/0/estimator/checkpoint_every_cycles", {"integer"});
+}

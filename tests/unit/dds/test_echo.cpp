@@ -139,6 +139,55 @@ TEST_CASE("echo formats: JSON has every field, text is one aligned line", "[dds]
   CHECK(json::parse(echo::to_json_line(obs)).at("quality") == "DEVICE_EXCEPTION");
 }
 
+TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm and hold",
+          "[dds][echo]") {
+  LeakDiagnosticRecord r;
+  r.site = "site";
+  r.unit = "hp1";
+  r.state = LeakState::kLeak;
+  r.hold = LeakHold::kStartUp;
+  r.charge = 0.4512;
+  r.charge_sigma = 0.004;
+  r.nameplate_charge = 0.5;
+  r.leak_rate = 2.1;
+  r.leak_rate_sigma = 0.3;
+  r.cusum = 14.0;
+  r.threshold = 12.0;
+  r.false_alarm_interval_days = 3650.0;
+  r.decisions = 17;
+  r.suspect_since_ns = 5;
+  r.leak_since_ns = 6;
+  r.quality = EstimateQuality::kDegraded;
+  r.timestamp_ns = 1'700'000'405'000'000'000;
+  r.cycle = 9;
+  const json j = json::parse(echo::to_json_line(r));
+  CHECK(j.at("topic") == "leak_diagnostic");
+  CHECK(j.at("state") == "LEAK");
+  CHECK(j.at("hold") == "START_UP");
+  CHECK(j.at("charge").get<double>() == 0.4512);
+  CHECK(j.at("leak_rate").get<double>() == 2.1);
+  CHECK(j.at("threshold").get<double>() == 12.0);
+  CHECK(j.at("decisions") == 17);
+  CHECK(j.at("leak_since_ns") == 6);
+  CHECK(j.at("quality") == "DEGRADED");
+  CHECK(j.size() == 19);  // every wire field plus "topic"
+
+  setenv("TZ", "UTC", 1);
+  tzset();
+  const std::string text = echo::to_text_line(r);
+  INFO(text);
+  CHECK(text.find("leak   LEAK") != std::string::npos);
+  CHECK(text.find("charge 0.451 ± 0.004 kg (nameplate 0.500)") != std::string::npos);
+  CHECK(text.find("held: START_UP") != std::string::npos);
+  r.hold = LeakHold::kNone;
+  CHECK(echo::to_text_line(r).find("held") == std::string::npos);
+
+  CHECK_THROWS_WITH(parse({"--topics", "leak"}), Catch::Contains("leak_diagnostic"));
+  const auto only_leak = parse({"--topics", "leak_diagnostic"});
+  CHECK(only_leak.topics.contains(Topic::kLeakDiagnostic));
+  CHECK_FALSE(only_leak.topics.contains(Topic::kVirtualSensor));
+}
+
 TEST_CASE("hvac-twin-echo prints every sample as a JSON line over loopback", "[dds][echo]") {
   const auto config = test::loopback_config(kDomainEchoJson);
   Participant participant(config);

@@ -15,6 +15,7 @@ using namespace std::chrono_literals;
 namespace {
 constexpr int kDomainRoundTrip = 104;
 constexpr int kDomainTwoUnits = 111;
+constexpr int kDomainLeakRoundTrip = 117;
 }  // namespace
 
 TEST_CASE("every field of every sample type round-trips", "[dds][roundtrip]") {
@@ -186,4 +187,95 @@ TEST_CASE("two units publish side by side on one participant", "[dds][roundtrip]
   CHECK(healths[0].cycle == 1);
   CHECK(healths[1].unit == "hp2");
   CHECK(healths[1].cycle == 2);
+}
+
+TEST_CASE("the leak diagnostic and the fused-points provenance round-trip", "[dds][roundtrip]") {
+  const auto config = test::loopback_config(kDomainLeakRoundTrip);
+  Participant writer_side(config);
+  Participant reader_side(config);
+  UnitPublisher publisher(writer_side, config.topic_prefix, "site", "hp-1", 1s);
+  Subscriber subscriber(reader_side, config.topic_prefix, {}, 1s);
+  const std::int64_t t0 = test::now_ns();
+
+  LeakDiagnosticSample leak;
+  leak.state = LeakState::kSuspect;
+  leak.hold = LeakHold::kCycling;
+  leak.charge = 0.4871234;
+  leak.charge_sigma = 0.0042;
+  leak.nameplate_charge = 0.5;
+  leak.leak_rate = 2.0833;
+  leak.leak_rate_sigma = 0.61;
+  leak.cusum = 7.25;
+  leak.threshold = 12.5;
+  leak.false_alarm_interval_days = 3650.0;
+  leak.decisions = 99;
+  leak.suspect_since_ns = t0 - 5;
+  leak.leak_since_ns = 0;
+  leak.quality = EstimateQuality::kGood;
+  leak.timestamp_ns = t0;
+  leak.cycle = 1234;
+  REQUIRE(publisher.publish(leak) == PublishStatus::kOk);
+
+  VirtualSensorSample vs;
+  vs.name = "charge";
+  vs.value = 0.49;
+  vs.eng_unit = "kg";
+  vs.fused_points = 0x8000'0000'0000'0005ull;  // points 0, 2 and 63
+  vs.timestamp_ns = t0;
+  REQUIRE(publisher.publish(vs) == PublishStatus::kOk);
+
+  std::vector<Record> records;
+  REQUIRE(test::collect(subscriber, records, 2));
+  const auto leaks = test::only<LeakDiagnosticRecord>(records);
+  REQUIRE(leaks.size() == 1);
+  const LeakDiagnosticRecord& l = leaks[0];
+  CHECK(l.site == "site");
+  CHECK(l.unit == "hp-1");
+  CHECK(l.state == LeakState::kSuspect);
+  CHECK(l.hold == LeakHold::kCycling);
+  CHECK(l.charge == leak.charge);
+  CHECK(l.charge_sigma == leak.charge_sigma);
+  CHECK(l.nameplate_charge == 0.5);
+  CHECK(l.leak_rate == leak.leak_rate);
+  CHECK(l.leak_rate_sigma == leak.leak_rate_sigma);
+  CHECK(l.cusum == 7.25);
+  CHECK(l.threshold == 12.5);
+  CHECK(l.false_alarm_interval_days == 3650.0);
+  CHECK(l.decisions == 99);
+  CHECK(l.suspect_since_ns == t0 - 5);
+  CHECK(l.leak_since_ns == 0);
+  CHECK(l.quality == EstimateQuality::kGood);
+  CHECK(l.timestamp_ns == t0);
+  CHECK(l.source_timestamp_ns == t0);
+  CHECK(l.cycle == 1234);
+  const auto vss = test::only<VirtualSensorRecord>(records);
+  REQUIRE(vss.size() == 1);
+  CHECK(vss[0].fused_points == vs.fused_points);
+
+  // Every alarm state and hold reason survives the wire (keep-last 1: read each before the next).
+  for (int s = 0; s <= 2; ++s) {
+    for (int h = 0; h <= 5; ++h) {
+      leak.state = static_cast<LeakState>(s);
+      leak.hold = static_cast<LeakHold>(h);
+      REQUIRE(publisher.publish(leak) == PublishStatus::kOk);
+      records.clear();
+      REQUIRE(test::collect(subscriber, records, 1));
+      const auto got = test::only<LeakDiagnosticRecord>(records);
+      REQUIRE(got.size() == 1);
+      CHECK(got[0].state == leak.state);
+      CHECK(got[0].hold == leak.hold);
+    }
+  }
+
+  // The publisher's guard: nothing non-finite or negative where it cannot be.
+  LeakDiagnosticSample bad = leak;
+  bad.charge = std::nan("");
+  CHECK(publisher.publish(bad) == PublishStatus::kNonFinite);
+  bad = leak;
+  bad.leak_rate_sigma = -1.0;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidValue);
+  bad = leak;
+  bad.leak_since_ns = -1;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidTimestamp);
+  CHECK(publisher.stats().rejected() == 3);
 }

@@ -1,0 +1,111 @@
+// UnitPipeline, leak detection: binds the detector to the model's leak-rate and charge outputs
+// and its compressor-speed input, steps it once per cycle and publishes the diagnosis.
+#include "daemon/runtime/unit_pipeline.hpp"
+
+namespace hvac_twin::runtime {
+namespace {
+
+dds::LeakState wire_state(est::LeakState s) {
+  switch (s) {
+    case est::LeakState::kNormal:
+      return dds::LeakState::kNormal;
+    case est::LeakState::kSuspect:
+      return dds::LeakState::kSuspect;
+    case est::LeakState::kLeak:
+      return dds::LeakState::kLeak;
+  }
+  return dds::LeakState::kNormal;
+}
+
+dds::LeakHold wire_hold(est::HoldReason h) {
+  switch (h) {
+    case est::HoldReason::kNone:
+      return dds::LeakHold::kNone;
+    case est::HoldReason::kWarmUp:
+      return dds::LeakHold::kWarmUp;
+    case est::HoldReason::kCompressorOff:
+      return dds::LeakHold::kCompressorOff;
+    case est::HoldReason::kStartUp:
+      return dds::LeakHold::kStartUp;
+    case est::HoldReason::kCycling:
+      return dds::LeakHold::kCycling;
+    case est::HoldReason::kDegraded:
+      return dds::LeakHold::kDegraded;
+  }
+  return dds::LeakHold::kWarmUp;
+}
+
+}  // namespace
+
+// Leak detection needs a leak rate the filter estimates (an augmented state, not a fixed
+// parameter), the charge it is judged against, and the compressor speed for the holds.
+void UnitPipeline::bind_leak_detection(const config::LeakDetectionConfig& c) {
+  const plant::ModelLayout& layout = model_->layout();
+  const auto leak_state = layout.state("leak_rate");
+  const auto charge_state = layout.state("charge");
+  const auto leak_out = layout.output("leak_rate");
+  const auto charge_out = layout.output("charge");
+  std::optional<std::size_t> speed;
+  for (std::size_t i = 0; i < layout.inputs.size(); ++i)
+    if (layout.inputs[i].name == "compressor_speed") speed = i;
+  if (!leak_state || !layout.states[*leak_state].augmented || !charge_state || !leak_out ||
+      !charge_out || !speed)
+    return;
+  leak_output_ = *leak_out;
+  charge_output_ = *charge_out;
+  speed_input_ = *speed;
+  nameplate_charge_ = layout.states[*charge_state].max;
+  false_alarm_days_ = c.false_alarm_interval_days;
+  est::LeakDetectorOptions o;
+  o.interval_s = c.interval_s;
+  o.design_shift_sigma = c.design_shift_sigma;
+  o.false_alarm_interval_days = c.false_alarm_interval_days;
+  o.warm_up_s = c.warm_up_s;
+  o.startup_s = c.startup_s;
+  o.min_compressor_speed_hz = c.min_compressor_speed_hz;
+  o.max_starts_per_hour = c.max_starts_per_hour;
+  leak_ = std::make_unique<est::LeakDetector>(o);
+}
+
+void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimates_valid) {
+  if (!estimates_valid) return;  // nothing to judge; the last report stands
+  const est::LeakReport& r = leak_->step(model_time_s_, y_[leak_output_], sigma_[leak_output_],
+                                         u_[speed_input_], quality != dds::EstimateQuality::kGood);
+  if (r.state == last_leak_state_) return;
+  const auto level = r.state == est::LeakState::kNormal ? spdlog::level::info : spdlog::level::warn;
+  log_->log(level, "unit {}: refrigerant leak state {} -> {} (CUSUM {:.2f}, threshold {:.2f})",
+            unit_.id, est::to_string(last_leak_state_), est::to_string(r.state), r.cusum,
+            r.threshold);
+  last_leak_state_ = r.state;
+}
+
+void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,
+                                dds::EstimateQuality quality, bool estimates_valid) {
+  const est::LeakReport& r = leak_->report();
+  // The episode's wall-clock start, kept until the state is NORMAL again.
+  if (r.state == est::LeakState::kNormal) {
+    suspect_since_ns_ = leak_since_ns_ = 0;
+  } else {
+    if (suspect_since_ns_ == 0) suspect_since_ns_ = stamp_ns;
+    if (r.state == est::LeakState::kLeak && leak_since_ns_ == 0) leak_since_ns_ = stamp_ns;
+  }
+  publisher_->publish(dds::LeakDiagnosticSample{
+      .state = wire_state(r.state),
+      .hold = estimates_valid ? wire_hold(r.hold) : dds::LeakHold::kWarmUp,
+      .charge = estimates_valid ? y_[charge_output_] : 0.0,
+      .charge_sigma = estimates_valid ? sigma_[charge_output_] : 0.0,
+      .nameplate_charge = nameplate_charge_,
+      .leak_rate = estimates_valid ? y_[leak_output_] : 0.0,
+      .leak_rate_sigma = estimates_valid ? sigma_[leak_output_] : 0.0,
+      .cusum = r.cusum,
+      .threshold = leak_->threshold(),
+      .false_alarm_interval_days = false_alarm_days_,
+      .decisions = r.decisions,
+      .suspect_since_ns = suspect_since_ns_,
+      .leak_since_ns = leak_since_ns_,
+      .quality = estimates_valid ? quality : dds::EstimateQuality::kNotReady,
+      .timestamp_ns = stamp_ns,
+      .cycle = cycle});
+}
+
+}  // namespace hvac_twin::runtime
