@@ -24,6 +24,7 @@ struct StackOptions {
   double poll_period_s = 0.025;
   double sim_step_s = 10.0;  // model seconds per truth step
   std::uint64_t seed = 1;
+  std::string base_config = "config/demo.json";    // relative to the source tree
   std::function<void(nlohmann::json&)> customize;  // last edit of the configuration
 };
 
@@ -80,12 +81,12 @@ class Stack {
                                         path("daemon.err"), env);
   }
 
-  void start_echo(double duration_s) {
-    echo_ = std::make_unique<Process>(
-        HVAC_TWIN_ECHO_EXE,
-        std::vector<std::string>{"--domain", std::to_string(o_.domain_id), "--format", "json",
-                                 "--duration", std::to_string(duration_s)},
-        path("echo.jsonl"), path("echo.err"));
+  void start_echo(double duration_s, const std::vector<std::string>& extra_args = {}) {
+    std::vector<std::string> args{"--domain",   std::to_string(o_.domain_id), "--format", "json",
+                                  "--duration", std::to_string(duration_s)};
+    args.insert(args.end(), extra_args.begin(), extra_args.end());
+    echo_ =
+        std::make_unique<Process>(HVAC_TWIN_ECHO_EXE, args, path("echo.jsonl"), path("echo.err"));
   }
 
   Process& sim() { return *sim_; }
@@ -108,7 +109,7 @@ class Stack {
 
   // The demo configuration, made fast and private to this stack.
   void write_config(int port) const {
-    std::ifstream in(std::string(HVAC_TWIN_SOURCE_DIR) + "/config/demo.json");
+    std::ifstream in(std::string(HVAC_TWIN_SOURCE_DIR) + "/" + o_.base_config);
     nlohmann::json c = nlohmann::json::parse(in);
     auto& unit = c["units"][0];
     unit["modbus"]["port"] = port;

@@ -1,0 +1,181 @@
+// Subscribers see the truth about the publisher (issue 5): the heat-pump daemon against its
+// simulator, a real Cyclone reader in this process with the publisher's deadline and liveliness.
+//  - a late-joining reader gets the current leak diagnosis at once, published before it existed;
+//  - a killed daemon is seen through lost liveliness within the lease (3 x period);
+//  - a hung cycle is seen through missed deadlines (2.5 x period) and lost liveliness.
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <thread>
+
+#include "io/dds/participant.hpp"
+#include "io/dds/subscriber.hpp"
+#include "stack.hpp"
+
+using namespace hvac_twin;
+using namespace hvac_twin::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+// The heat pump at 10x: one 5 s model cycle every 0.5 s of wall time.
+constexpr double kTimeScale = 10.0;
+constexpr double kPeriodS = 5.0;
+constexpr auto kWallPeriod = std::chrono::milliseconds(500);
+
+StackOptions heat_pump_options(int domain) {
+  StackOptions o;
+  o.domain_id = domain;
+  o.time_scale = kTimeScale;
+  o.period_s = kPeriodS;
+  o.deadline_s = 0.45;
+  o.poll_period_s = 0.1;
+  o.sim_step_s = 1.0;
+  o.base_config = "config/demo-heat-pump.json";
+  o.customize = [](nlohmann::json& c) {
+    c["units"][0]["estimator"]["settle_s"] = 300.0;  // a shorter start than the demo's
+  };
+  return o;
+}
+
+config::DdsConfig reader_config(int domain) {
+  config::DdsConfig c;
+  c.domain_id = domain;
+  return c;  // lo, unicast to 127.0.0.1, multicast off: the defaults
+}
+
+// Takes samples until `done` holds or `timeout` passes.
+template <class F>
+bool take_until(dds::Subscriber& sub, std::vector<dds::Record>& got, F done,
+                std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    sub.wait_and_take(100ms, got);
+    if (done()) return true;
+  }
+  return done();
+}
+
+std::int64_t realtime_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Waits until the reader of `topic` sees no live writer; returns how long that took.
+std::optional<std::chrono::milliseconds> time_to_lost_liveliness(
+    dds::Subscriber& sub, dds::Topic topic, std::chrono::milliseconds timeout) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<dds::Record> sink;
+  while (std::chrono::steady_clock::now() - start < timeout) {
+    if (sub.status(topic).alive_writers == 0)
+      return std::chrono::duration_cast<std::chrono::milliseconds>(
+          std::chrono::steady_clock::now() - start);
+    sub.take(sink);
+    std::this_thread::sleep_for(10ms);
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once",
+          "[integration][leak][dds]") {
+  Stack stack("leak-late", heat_pump_options(56));
+  stack.start_sim();
+  stack.start_daemon();
+  INFO("daemon stderr:\n" << stack.daemon().err());
+  // Let the daemon publish a few cycles with nobody listening in this process.
+  REQUIRE(
+      eventually([&] { return stack.daemon().err().find("estimates") != std::string::npos; }, 30s));
+  std::this_thread::sleep_for(3 * kWallPeriod);
+
+  const std::int64_t joined_ns = realtime_now_ns();
+  dds::Participant participant(reader_config(56));
+  dds::Subscriber late(participant, "hvac_twin", dds::TopicSet{false, false, false, true},
+                       kWallPeriod);
+  std::vector<dds::Record> got;
+  // Transient-local, keep-last 1: the sample written before this reader existed is delivered
+  // on matching; its timestamp proves it was not simply the next cycle's.
+  const bool received = take_until(
+      late, got, [&] { return !got.empty(); }, 5s);
+  REQUIRE(received);
+  const auto& first = std::get<dds::LeakDiagnosticRecord>(got.front());
+  CHECK(first.timestamp_ns < joined_ns);
+  CHECK(first.unit == "hp1");
+  CHECK(first.nameplate_charge == Approx(0.5));
+  CHECK(first.quality != dds::EstimateQuality::kNotReady);
+  CHECK(first.charge > 0.3);
+  CHECK(first.charge <= first.nameplate_charge + 1e-9);
+  // Warm-up holds judgement for an hour of model time: the hold and its reason are published.
+  CHECK(first.hold == dds::LeakHold::kWarmUp);
+  CHECK(first.state == dds::LeakState::kNormal);
+
+  // Diagnostics come every cycle even when nothing changed.
+  got.clear();
+  REQUIRE(take_until(
+      late, got, [&] { return got.size() >= 4; }, 10 * kWallPeriod));
+  const auto& a = std::get<dds::LeakDiagnosticRecord>(got[0]);
+  const auto& b = std::get<dds::LeakDiagnosticRecord>(got[3]);
+  CHECK(b.cycle == a.cycle + 3);
+}
+
+TEST_CASE("a killed daemon loses liveliness within the lease; a hung one misses its deadline",
+          "[integration][leak][dds]") {
+  dds::Participant participant(reader_config(57));
+  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{}, kWallPeriod);
+  const auto lease = 3 * kWallPeriod;
+  const auto deadline = kWallPeriod * 5 / 2;
+
+  SECTION("kill -9") {
+    Stack stack("leak-kill", heat_pump_options(57));
+    stack.start_sim();
+    stack.start_daemon();
+    INFO("daemon stderr:\n" << stack.daemon().err());
+    std::vector<dds::Record> got;
+    REQUIRE(take_until(
+        reader, got, [&] { return reader.status(dds::Topic::kLeakDiagnostic).alive_writers == 1; },
+        30s));
+    stack.daemon().signal(SIGKILL);
+    REQUIRE(stack.daemon().wait(5s).has_value());
+    const auto lost = time_to_lost_liveliness(reader, dds::Topic::kLeakDiagnostic, 4 * lease);
+    REQUIRE(lost.has_value());
+    INFO("liveliness lost " << lost->count() << " ms after the kill; lease " << lease.count()
+                            << " ms");
+    CHECK(*lost <= lease + 300ms);  // the lease, plus Cyclone's lease check granularity
+    // Every other topic of the unit goes the same way.
+    CHECK(reader.status(dds::Topic::kVirtualSensor).alive_writers == 0);
+    CHECK(reader.status(dds::Topic::kEstimatorHealth).alive_writers == 0);
+  }
+
+  SECTION("hung cycle") {
+    Stack stack("leak-hang", heat_pump_options(57));
+    stack.start_sim();
+    constexpr int kHangCycle = 12;
+    stack.start_daemon({"--fault-hang-at-cycle", std::to_string(kHangCycle)});
+    INFO("daemon stderr:\n" << stack.daemon().err());
+    std::vector<dds::Record> got;
+    REQUIRE(take_until(
+        reader, got, [&] { return stack.daemon().err().find("hangs") != std::string::npos; }, 30s));
+    const auto hung_at = std::chrono::steady_clock::now();
+    const std::uint32_t missed_before = reader.status(dds::Topic::kLeakDiagnostic).deadline_missed;
+    std::optional<std::chrono::milliseconds> missed_after;
+    while (std::chrono::steady_clock::now() - hung_at < 4 * deadline) {
+      reader.take(got);
+      if (reader.status(dds::Topic::kLeakDiagnostic).deadline_missed > missed_before) {
+        missed_after = std::chrono::duration_cast<std::chrono::milliseconds>(
+            std::chrono::steady_clock::now() - hung_at);
+        break;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    REQUIRE(missed_after.has_value());
+    INFO("deadline missed " << missed_after->count() << " ms after the hang; deadline "
+                            << deadline.count() << " ms");
+    CHECK(*missed_after <= deadline + 300ms);
+    // The process is alive but its cycle is not: liveliness is lost as well.
+    REQUIRE(time_to_lost_liveliness(reader, dds::Topic::kLeakDiagnostic, 2 * lease).has_value());
+    CHECK(stack.daemon().running());
+    stack.daemon().signal(SIGTERM);
+    stack.daemon().wait(10s);
+  }
+}
