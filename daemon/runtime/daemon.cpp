@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 
+#include "config/enum_names.hpp"
 #include "daemon/runtime/clock.hpp"
 #include "io/dds/security.hpp"
 
@@ -24,12 +25,18 @@ void Daemon::start() {
   for (std::size_t i = 0; i < config_.units.size(); ++i) {
     pipelines_.push_back(std::make_unique<UnitPipeline>(config_, i, *participant_, log_, hooks_));
     const auto& u = config_.units[i];
+    const std::string members = u.estimator.type == config::EstimatorType::kConstrainedEnkf
+                                    ? fmt::format(" ({} members, {} threads)",
+                                                  u.estimator.ensemble_members, u.estimator.threads)
+                                    : std::string();
     log_->info(
-        "unit {}: model {} ({} states), {} points from {}:{} unit {}, period {} s "
-        "(wall {:.3f} s), deadline {} s",
-        u.id, u.model.type, pipelines_.back()->filter().num_states(), u.points.size(),
-        u.modbus.host, u.modbus.port, u.modbus.unit_id, u.estimator.period_s,
-        static_cast<double>(pipelines_.back()->wall_period_ns()) * 1e-9, u.estimator.deadline_s);
+        "unit {}: model {} ({} states), filter {}{}, {} points from {}:{} unit {}, period {} s "
+        "(wall {:.3f} s), deadline {} s{}",
+        u.id, u.model.type, pipelines_.back()->filter().num_states(),
+        config::to_string(u.estimator.type), members, u.points.size(), u.modbus.host, u.modbus.port,
+        u.modbus.unit_id, u.estimator.period_s,
+        static_cast<double>(pipelines_.back()->wall_period_ns()) * 1e-9, u.estimator.deadline_s,
+        pipelines_.back()->leak_detector() ? ", leak detection on" : "");
   }
 
   SupervisorOptions sup;
