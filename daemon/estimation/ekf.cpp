@@ -98,6 +98,28 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
 }
 
+bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major,
+                  const EstimatorCounters& counters) {
+  if (!restorable(x, P_row_major, n_)) return false;
+  const auto n = static_cast<Eigen::Index>(n_);
+  // Checked in scratch first so that a refused P changes nothing.
+  for (Eigen::Index r = 0; r < n; ++r)
+    for (Eigen::Index c = 0; c < n; ++c)
+      tmp_(r, c) = P_row_major[static_cast<std::size_t>(r * n + c)];
+  llt_.compute(tmp_);
+  if (llt_.info() != Eigen::Success) return false;
+  P_ = tmp_;
+  for (Eigen::Index i = 0; i < n; ++i)
+    x_(i) = x[static_cast<std::size_t>(i)];
+  x_good_ = x_;
+  P_good_ = P_;
+  counters_ = counters;
+  lost_updates_ = 0;
+  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  active_count_ = 0;
+  return true;
+}
+
 StepStatus Ekf::predict(std::span<const double> u, double dt) {
   ++counters_.predicts;
   std::copy(x_.data(), x_.data() + n_, x_buf_.begin());

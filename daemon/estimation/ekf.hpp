@@ -60,6 +60,13 @@ class Ekf final : public Estimator {
   // Sets x and P = diag(std0²), and makes them the last good state.
   void reset(std::span<const double> x0, std::span<const double> std0) override;
 
+  // Sets x, P and the counters from a checkpoint and makes them the last good state; P must also
+  // be positive definite (the health check's criterion). Keeps the initial covariance of the
+  // last reset(). Restoring the (x, P, counters) of another instance built alike makes the next
+  // predict() and update() bit-for-bit those of the original.
+  bool restore(std::span<const double> x, std::span<const double> P_row_major,
+               const EstimatorCounters& counters) override;
+
   StepStatus predict(std::span<const double> u, double dt) override;
 
   // Tests and fuses `z` (at most max_measurements), writing one report per measurement. Slot i

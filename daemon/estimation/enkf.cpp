@@ -76,6 +76,10 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
   fused_.assign(static_cast<std::size_t>(f), 0);
   consecutive_rejections_.assign(max_measurements, 0);
   active_.assign(constraints_.rows(), -1);
+  // Sized by a factorisation, for the same reason as llt_.
+  restore_P_ = Eigen::MatrixXd::Identity(n, n);
+  ldlt_.compute(restore_P_);
+  draw_ = Eigen::VectorXd::Zero(n);
 }
 
 ConstrainedEnkf::~ConstrainedEnkf() = default;
@@ -95,6 +99,46 @@ void ConstrainedEnkf::reset(std::span<const double> x0, std::span<const double> 
   statistics();
   if (options_.constrained) constrain({});
   statistics();
+}
+
+bool ConstrainedEnkf::restore(std::span<const double> x, std::span<const double> P_row_major,
+                              const EstimatorCounters& counters) {
+  if (!restorable(x, P_row_major, n_)) return false;
+  const auto n = static_cast<Eigen::Index>(n_);
+  for (Eigen::Index r = 0; r < n; ++r)
+    for (Eigen::Index c = 0; c < n; ++c)
+      restore_P_(r, c) = P_row_major[static_cast<std::size_t>(r * n + c)];
+  // Pivoted LDLT, since an ensemble covariance of fewer members than states is singular:
+  // P = Tᵀ L D Lᵀ T, so Tᵀ L √D z with z ~ N(0, I) has covariance P. Written out as loops on
+  // preallocated storage (Eigen's triangular products may allocate their blocking workspace).
+  ldlt_.compute(restore_P_);
+  if (ldlt_.info() != Eigen::Success) return false;
+  const auto& L = ldlt_.matrixLDLT();  // unit lower triangle below the diagonal, D on it
+  const auto& T = ldlt_.transpositionsP().indices();
+  for (std::size_t i = 0; i < N_; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j)
+      draw_(j) = std::sqrt(std::max(L(j, j), 0.0)) * normal(i);
+    for (Eigen::Index r = n - 1; r >= 0; --r) {  // draw_ = L draw_, in place from the bottom
+      double v = draw_(r);
+      for (Eigen::Index c = 0; c < r; ++c)
+        v += L(r, c) * draw_(c);
+      draw_(r) = v;
+    }
+    for (Eigen::Index k = n - 1; k >= 0; --k)  // Tᵀ: the transpositions in reverse order
+      std::swap(draw_(k), draw_(T(k)));
+    X_.col(static_cast<Eigen::Index>(i)) = draw_;
+  }
+  // Recentred: the draws' own mean removed, so the ensemble mean is x itself.
+  mean_ = X_.rowwise().mean();
+  for (Eigen::Index j = 0; j < n; ++j)
+    X_.row(j).array() += x[static_cast<std::size_t>(j)] - mean_(j);
+  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  active_count_ = 0;
+  counters_ = counters;
+  statistics();
+  if (options_.constrained) constrain({});
+  statistics();
+  return true;
 }
 
 StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {

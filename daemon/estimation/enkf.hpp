@@ -55,6 +55,12 @@ class ConstrainedEnkf final : public Estimator {
   ~ConstrainedEnkf() override;
 
   void reset(std::span<const double> x0, std::span<const double> std0) override;
+  // Redraws the members from N(x, P) with their own generators (P may be singular: an LDLT
+  // square root), recentred so that their mean is x, then constrained as reset() does; and sets
+  // the counters. The generators are not checkpointed, so the run continues statistically, not
+  // bit-for-bit.
+  bool restore(std::span<const double> x, std::span<const double> P_row_major,
+               const EstimatorCounters& counters) override;
   StepStatus predict(std::span<const double> u, double dt) override;
   StepStatus update(std::span<const Measurement> z, std::span<const double> u,
                     std::span<MeasurementReport> reports) override;
@@ -104,6 +110,10 @@ class ConstrainedEnkf final : public Estimator {
   // Constraints.
   ConstraintSet constraints_;
   Eigen::MatrixXd metric_;  // diag(P) as a dense matrix for the projection
+  // restore(): the checkpointed P and its pivoted LDLT square root, sized once.
+  Eigen::MatrixXd restore_P_;
+  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
+  Eigen::VectorXd draw_;
   std::vector<int> active_;
   std::size_t active_count_ = 0;
   EstimatorCounters counters_;

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -60,6 +62,13 @@ class Estimator {
 
   // Sets the state and P = diag(std0²) (the EnKF draws its members from that Gaussian).
   virtual void reset(std::span<const double> x0, std::span<const double> std0) = 0;
+  // Resumes from a checkpoint (start-up, after reset(), which sets the covariance a filter that
+  // lost track returns to): the estimate x, its covariance P (row-major n x n) and the counters.
+  // Returns false and changes nothing unless x has n entries and P n x n, every value is finite
+  // and P is symmetric (relative 1e-9) with a non-negative diagonal; an implementation may
+  // refuse more (the EKF: P not positive definite). Per-point rejection runs start afresh.
+  virtual bool restore(std::span<const double> x, std::span<const double> P_row_major,
+                       const EstimatorCounters& counters) = 0;
   virtual StepStatus predict(std::span<const double> u, double dt) = 0;
   // Tests and fuses z, one report per measurement; slot i of z is the same sensor every cycle.
   virtual StepStatus update(std::span<const Measurement> z, std::span<const double> u,
@@ -75,6 +84,25 @@ class Estimator {
   // Constraint rows active after the last update, and their names.
   [[nodiscard]] virtual std::span<const int> active_constraints() const = 0;
   [[nodiscard]] virtual const std::string& constraint_name(int row) const = 0;
+
+ protected:
+  // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A
+  // checkpoint has already been checked by its loader; this guards every other caller.
+  [[nodiscard]] static bool restorable(std::span<const double> x, std::span<const double> P,
+                                       std::size_t n) {
+    if (x.size() != n || P.size() != n * n) return false;
+    for (const double v : x)
+      if (!std::isfinite(v)) return false;
+    for (std::size_t r = 0; r < n; ++r) {
+      if (!(P[r * n + r] >= 0.0)) return false;
+      for (std::size_t c = 0; c < n; ++c) {
+        const double a = P[r * n + c], b = P[c * n + r];
+        if (!std::isfinite(a) || !(std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b))))
+          return false;
+      }
+    }
+    return true;
+  }
 };
 
 }  // namespace hvac_twin::est

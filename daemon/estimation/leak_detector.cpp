@@ -125,4 +125,58 @@ const LeakReport& LeakDetector::step(double t, double leak, double sigma, double
   return report_;
 }
 
+void LeakDetector::save_state(std::span<double, kStateSize> out) const {
+  std::size_t i = 0;
+  const auto put = [&](double v) { out[i++] = v; };
+  put(static_cast<double>(report_.state));
+  put(static_cast<double>(report_.hold));
+  put(report_.cusum);
+  put(report_.statistic);
+  put(static_cast<double>(report_.decisions));
+  put(report_.first_suspect_s);
+  put(report_.first_leak_s);
+  put(start_t_);
+  put(last_t_);
+  put(running_ ? 1.0 : 0.0);
+  put(running_since_);
+  for (const double s : starts_)
+    put(s);
+  put(n_starts_);
+  put(next_start_);
+  put(z_sum_);
+  put(z_time_);
+}
+
+bool LeakDetector::restore_state(std::span<const double> in) {
+  if (in.size() != kStateSize) return false;
+  if (!std::all_of(in.begin(), in.end(), [](double v) { return std::isfinite(v); })) return false;
+  const auto whole_in = [](double v, double lo, double hi) {
+    return v >= lo && v <= hi && v == std::floor(v);
+  };
+  if (!whole_in(in[0], 0, 2) || !whole_in(in[1], 0, 5) || in[2] < 0.0 ||
+      !whole_in(in[4], 0, 9e15) || !whole_in(in[9], 0, 1) || !whole_in(in[19], 0, 8) ||
+      !whole_in(in[20], 0, 7) || in[22] < 0.0)
+    return false;
+  std::size_t i = 0;
+  const auto get = [&] { return in[i++]; };
+  report_.state = static_cast<LeakState>(static_cast<int>(get()));
+  report_.hold = static_cast<HoldReason>(static_cast<int>(get()));
+  report_.cusum = get();
+  report_.statistic = get();
+  report_.decisions = static_cast<std::uint64_t>(get());
+  report_.first_suspect_s = get();
+  report_.first_leak_s = get();
+  start_t_ = get();
+  last_t_ = get();
+  running_ = get() != 0.0;
+  running_since_ = get();
+  for (double& s : starts_)
+    s = get();
+  n_starts_ = static_cast<int>(get());
+  next_start_ = static_cast<int>(get());
+  z_sum_ = get();
+  z_time_ = get();
+  return true;
+}
+
 }  // namespace hvac_twin::est

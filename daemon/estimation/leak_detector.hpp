@@ -18,7 +18,9 @@
 // Pure: time is passed in (model seconds). No allocation, no exceptions after construction.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string_view>
 
 namespace hvac_twin::est {
@@ -43,6 +45,7 @@ struct LeakDetectorOptions {
   double startup_s = 900.0;                   // hold for this long after a compressor start [s]
   double min_compressor_speed_hz = 5.0;       // below this the compressor is off
   double max_starts_per_hour = 3.0;           // more: cycling
+  double sigma_floor = 0.0;  // smallest sigma the estimate is standardised by [estimate unit]
 };
 
 struct LeakReport {
@@ -65,6 +68,14 @@ class LeakDetector {
   const LeakReport& step(double t, double leak, double sigma, double compressor_hz, bool degraded);
 
   [[nodiscard]] const LeakReport& report() const { return report_; }
+
+  // Checkpoints: the detector's whole running state as numbers (alarm state, CUSUM, decision
+  // accumulators, compressor-start history, times). The threshold is not saved: it follows from
+  // the options. restore_state() returns false and changes nothing if `in` has another size or
+  // a value no detector could have produced.
+  static constexpr std::size_t kStateSize = 23;
+  void save_state(std::span<double, kStateSize> out) const;
+  bool restore_state(std::span<const double> in);
   [[nodiscard]] double threshold() const { return h_; }
   // Siegmund's in-control average run length for reference value k and threshold h.
   static double arl0(double k, double h);

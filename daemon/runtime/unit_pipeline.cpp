@@ -136,6 +136,7 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
     throw std::invalid_argument("at most 64 measured points per unit");
   filter_ = make_filter(*model_, unit_.estimator, q, measured_.size());
   bind_leak_detection(unit_.estimator.leak_detection);
+  if (unit_.estimator.checkpoint_every_cycles > 0) open_checkpoints(config.state_directory);
 
   guess_x_.assign(layout.states.size(), 0.0);
   guess_y_.assign(layout.outputs.size(), 0.0);
@@ -232,7 +233,7 @@ void UnitPipeline::note_refusal(bool& refusing, bool refused, const std::string&
 // The first state: the configuration's initial values where it gives them, otherwise the
 // model's own guess at the first inputs and measurements (or the layout's defaults), settled
 // for estimator.settle_s model seconds at the first inputs.
-void UnitPipeline::initialize(std::uint32_t& flags) {
+void UnitPipeline::initialize() {
   std::fill(guess_y_.begin(), guess_y_.end(), std::numeric_limits<double>::quiet_NaN());
   for (const auto& b : measured_) {
     const auto& s = samples_[b.point];
@@ -257,9 +258,10 @@ void UnitPipeline::initialize(std::uint32_t& flags) {
   model_time_s_ = 0.0;
   initialized_ = true;
   have_prev_ = false;
-  flags |= dds::kFlagColdStart;
-  log_->info("unit {}: estimator started{}", unit_.id,
-             guessed ? " from the model's guess at the measured conditions" : "");
+  cold_start_ = !(checkpoints_ && resume_from_checkpoint());
+  if (cold_start_)
+    log_->info("unit {}: estimator started{}", unit_.id,
+               guessed ? " from the model's guess at the measured conditions" : "");
 }
 
 void UnitPipeline::fault_hooks(std::uint64_t cycle) {
@@ -280,7 +282,8 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   std::uint32_t flags = 0;
   const bool inputs_ready = read_inputs(flags);
 
-  if (!initialized_ && inputs_ready) initialize(flags);
+  if (!initialized_ && inputs_ready) initialize();
+  if (cold_start_) flags |= dds::kFlagColdStart;
   if (initialized_) {
     out.ran_estimator = true;
     if (have_prev_) {
@@ -331,6 +334,13 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   cycle_ns_ = out.cycle_ns;
   if (out.cycle_ns > cycle_max_ns_) cycle_max_ns_ = out.cycle_ns;
   publish_health(stamp, tick.index, out.quality);
+  // After publishing: two fsyncs must not delay this cycle's outputs.
+  if (checkpoints_ && initialized_ &&
+      ++cycles_since_checkpoint_ >=
+          static_cast<std::uint64_t>(unit_.estimator.checkpoint_every_cycles)) {
+    cycles_since_checkpoint_ = 0;
+    save_checkpoint(stamp, tick.index);
+  }
   return out;
 }
 

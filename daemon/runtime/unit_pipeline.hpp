@@ -20,6 +20,7 @@
 #include "config/units.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/runtime/checkpoint_store.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "io/dds/participant.hpp"
 #include "io/dds/publisher.hpp"
@@ -72,6 +73,8 @@ class UnitPipeline {
   [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
   // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
   [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
+  [[nodiscard]] bool cold_start() const { return cold_start_; }  // cycle thread
+  [[nodiscard]] std::uint64_t checkpoint_failures() const { return checkpoint_failures_; }
   [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
   [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
@@ -100,6 +103,9 @@ class UnitPipeline {
   void publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                std::uint32_t flags, bool estimates_valid);
   void bind_leak_detection(const config::LeakDetectionConfig& c);
+  void open_checkpoints(const std::string& state_directory);
+  bool resume_from_checkpoint();  // true: restored; false: cold start (reason logged)
+  void save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle);
   void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
   void publish_leak(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                     bool estimates_valid);
@@ -120,7 +126,7 @@ class UnitPipeline {
   std::unique_ptr<modbus::Poller> poller_;
   std::unique_ptr<dds::UnitPublisher> publisher_;
 
-  void initialize(std::uint32_t& flags);
+  void initialize();
 
   std::vector<double> x0_, std0_;
   std::vector<bool> configured_x0_;  // initial_state given by the configuration (kept as is)
@@ -146,6 +152,14 @@ class UnitPipeline {
   std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began
   std::int64_t leak_since_ns_ = 0;     // wall time of the first LEAK in this episode
   est::LeakState last_leak_state_ = est::LeakState::kNormal;
+
+  // Crash-safe checkpoints (estimator.checkpoint_every_cycles > 0).
+  std::unique_ptr<CheckpointStore> checkpoints_;
+  FilterSnapshot snapshot_;  // sized once; refilled in place before every save
+  std::uint64_t cycles_since_checkpoint_ = 0;
+  std::uint64_t checkpoint_failures_ = 0;
+  bool checkpoint_failing_ = false;  // the last save failed (logged once per episode)
+  bool cold_start_ = true;           // no checkpoint restored since start
 
   bool initialized_ = false;
   bool have_prev_ = false;

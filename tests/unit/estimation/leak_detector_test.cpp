@@ -2,6 +2,7 @@
 // detection of a shift, holds while the model cannot judge, and hysteresis.
 #include "daemon/estimation/leak_detector.hpp"
 
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
@@ -134,4 +135,53 @@ TEST_CASE("alarm states have hysteresis", "[leak]") {
   }
   CHECK(leak_decisions > 0);
   CHECK(d.report().state == LeakState::kNormal);
+}
+
+TEST_CASE("a restored detector continues exactly where the saved one was", "[leak]") {
+  LeakDetectorOptions o = every_second(17520.0);
+  o.warm_up_s = 30.0;
+  o.startup_s = 5.0;
+  LeakDetector original(o);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(1.2, 1.0);  // a small leak: the CUSUM climbs slowly
+  double t = 0.0;
+  // Mid-way through: warm-up over, a compressor stop and start in the history, a partial
+  // interval accumulated, CUSUM above zero.
+  for (; t < 80.0; t += 0.5)
+    original.step(t, g(rng), 1.0, (t > 40.0 && t < 45.0) ? 0.0 : 50.0, false);
+  REQUIRE(original.report().decisions > 10);
+  REQUIRE(original.report().cusum > 0.0);
+
+  std::array<double, LeakDetector::kStateSize> saved{};
+  original.save_state(saved);
+  LeakDetector restored(o);
+  REQUIRE(restored.restore_state(saved));
+  for (; t < 400.0; t += 0.5) {
+    const double z = g(rng);
+    const double hz = (t > 200.0 && t < 203.0) ? 0.0 : 50.0;
+    const LeakReport& a = original.step(t, z, 1.0, hz, false);
+    const LeakReport& b = restored.step(t, z, 1.0, hz, false);
+    REQUIRE(a.state == b.state);
+    REQUIRE(a.hold == b.hold);
+    REQUIRE(a.cusum == b.cusum);
+    REQUIRE(a.decisions == b.decisions);
+  }
+  CHECK(original.report().first_leak_s == restored.report().first_leak_s);
+
+  // A fresh detector is different: the comparison above can fail.
+  LeakDetector fresh(o);
+  CHECK(fresh.step(t, 0.0, 1.0, 50.0, false).hold == HoldReason::kWarmUp);
+
+  // Nonsense is refused and changes nothing.
+  auto bad = saved;
+  bad[0] = 7.0;  // no such alarm state
+  CHECK_FALSE(fresh.restore_state(bad));
+  bad = saved;
+  bad[2] = std::nan("");
+  CHECK_FALSE(fresh.restore_state(bad));
+  bad = saved;
+  bad[19] = 9.0;  // more starts than the ring holds
+  CHECK_FALSE(fresh.restore_state(bad));
+  CHECK_FALSE(fresh.restore_state(std::span<const double>(saved.data(), saved.size() - 1)));
+  CHECK(fresh.report().decisions == 0);
 }

@@ -1,0 +1,136 @@
+// A restarted daemon resumes from its checkpoint (issue 6): killed with SIGKILL and started
+// again, the heat-pump daemon continues its charge estimate (same value, same small sigma) and
+// its leak evidence (decisions, no second warm-up) instead of starting over; with the checkpoint
+// removed the same restart is a cold start (the negative control: the test can fail).
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include "io/dds/participant.hpp"
+#include "io/dds/subscriber.hpp"
+#include "stack.hpp"
+
+using namespace hvac_twin;
+using namespace hvac_twin::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+constexpr int kDomain = 58;
+
+StackOptions resume_options() {
+  StackOptions o;
+  o.domain_id = kDomain;
+  o.time_scale = 10.0;
+  o.period_s = 5.0;
+  o.deadline_s = 0.45;
+  o.poll_period_s = 0.1;
+  o.sim_step_s = 1.0;
+  o.base_config = "config/demo-heat-pump.json";
+  o.customize = [](nlohmann::json& c) {
+    auto& e = c["units"][0]["estimator"];
+    e["settle_s"] = 300.0;
+    e["checkpoint_every_cycles"] = 4;
+    // Short warm-up and decisions, so the detector has history worth keeping within seconds.
+    e["leak_detection"] = {{"warm_up_s", 30.0}, {"interval_s", 20.0}, {"startup_s", 0.0}};
+  };
+  return o;
+}
+
+// The newest charge estimate and leak diagnosis of one daemon run, from cycle `min_cycle` on.
+struct Seen {
+  std::optional<dds::VirtualSensorRecord> charge;
+  std::optional<dds::LeakDiagnosticRecord> leak;
+  std::optional<dds::VirtualSensorRecord> first_charge;  // the run's first samples
+  std::optional<dds::LeakDiagnosticRecord> first_leak;
+};
+
+void watch(dds::Subscriber& sub, Seen& seen, std::chrono::milliseconds how_long) {
+  const auto end = std::chrono::steady_clock::now() + how_long;
+  std::vector<dds::Record> got;
+  while (std::chrono::steady_clock::now() < end) {
+    got.clear();
+    sub.wait_and_take(100ms, got);
+    for (const auto& r : got) {
+      if (const auto* v = std::get_if<dds::VirtualSensorRecord>(&r); v && v->name == "charge") {
+        if (!seen.first_charge) seen.first_charge = *v;
+        seen.charge = *v;
+      }
+      if (const auto* l = std::get_if<dds::LeakDiagnosticRecord>(&r)) {
+        if (!seen.first_leak) seen.first_leak = *l;
+        seen.leak = *l;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint; without it, a cold start",
+          "[integration][checkpoint]") {
+  Stack stack("resume", resume_options());
+  stack.start_sim();
+  dds::Participant participant([] {
+    config::DdsConfig c;
+    c.domain_id = kDomain;
+    return c;
+  }());
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{true, false, false, true});  // virtual_sensor, leak
+
+  // First run: long enough for several checkpoints and leak decisions.
+  stack.start_daemon();
+  Seen before;
+  watch(reader, before, 12s);
+  const std::string first_log = stack.daemon().err();
+  INFO("first run:\n" << first_log);
+  stack.daemon().signal(SIGKILL);
+  REQUIRE(stack.daemon().wait(5s).has_value());
+  REQUIRE(before.charge.has_value());
+  REQUIRE(before.leak.has_value());
+  CHECK((before.first_charge->flags & dds::kFlagColdStart) != 0);
+  CHECK(before.leak->decisions >= 2);
+  CHECK(before.leak->hold != dds::LeakHold::kWarmUp);
+  const double initial_sigma = before.first_charge->sigma;
+  CHECK(before.charge->sigma < 0.5 * initial_sigma);  // the filter learnt the charge
+  const std::string ckpt = stack.path("state/hp1.ckpt");
+  REQUIRE(std::filesystem::exists(ckpt));
+
+  // Second run, same state directory: resumes.
+  std::vector<dds::Record> drain;
+  reader.take(drain);
+  stack.start_daemon();
+  Seen after;
+  watch(reader, after, 4s);
+  INFO("second run:\n" << stack.daemon().err());
+  CHECK_THAT(stack.daemon().err(), Catch::Contains("resumed from checkpoint"));
+  REQUIRE(after.first_charge.has_value());
+  REQUIRE(after.leak.has_value());
+  CHECK((after.first_charge->flags & dds::kFlagColdStart) == 0);
+  // The charge continues: the same estimate (within what the last few cycles moved it) with the
+  // small sigma it had, not the cold-start sigma.
+  CHECK(after.first_charge->value == Approx(before.charge->value).margin(0.01));
+  CHECK(after.first_charge->sigma < 0.5 * initial_sigma);
+  // The leak evidence continues: no second warm-up, decisions counted on from the checkpoint.
+  CHECK(after.first_leak->decisions >= before.leak->decisions - 1);  // at most 4 cycles lost
+  CHECK(after.first_leak->hold != dds::LeakHold::kWarmUp);
+  stack.daemon().signal(SIGKILL);
+  REQUIRE(stack.daemon().wait(5s).has_value());
+
+  // Negative control: the checkpoint removed, the same restart starts over.
+  std::filesystem::remove(ckpt);
+  reader.take(drain);
+  stack.start_daemon();
+  Seen cold;
+  watch(reader, cold, 3s);
+  INFO("third run:\n" << stack.daemon().err());
+  REQUIRE(cold.first_charge.has_value());
+  REQUIRE(cold.leak.has_value());
+  CHECK((cold.first_charge->flags & dds::kFlagColdStart) != 0);
+  CHECK(cold.first_charge->sigma > 0.5 * initial_sigma);
+  CHECK(cold.first_leak->hold == dds::LeakHold::kWarmUp);
+  CHECK(cold.first_leak->decisions == 0);
+  stack.daemon().signal(SIGTERM);
+  stack.daemon().wait(10s);
+}
