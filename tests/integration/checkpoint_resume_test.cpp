@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "io/dds/participant.hpp"
@@ -131,6 +132,68 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint; without it,
   CHECK(cold.first_charge->sigma > 0.5 * initial_sigma);
   CHECK(cold.first_leak->hold == dds::LeakHold::kWarmUp);
   CHECK(cold.first_leak->decisions == 0);
+  stack.daemon().signal(SIGTERM);
+  stack.daemon().wait(10s);
+}
+
+namespace {
+
+// The first child of `pid` (the daemon under strace), or 0.
+pid_t first_child(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children");
+  pid_t child = 0;
+  f >> child;
+  return child;
+}
+
+bool strace_works() {
+  Process probe("/usr/bin/strace", {"-qq", "-o", "/dev/null", "/bin/true"}, "/dev/null",
+                "/dev/null");
+  return probe.wait(10s) == 0;
+}
+
+}  // namespace
+
+TEST_CASE("fsync failing with EIO keeps the daemon running and the previous checkpoint",
+          "[integration][checkpoint]") {
+  if (!std::filesystem::exists("/usr/bin/strace") || !strace_works()) {
+    WARN("SKIPPED: strace is missing or cannot trace here (.ci/setup installs it)");
+    return;
+  }
+  StackOptions o = resume_options();
+  o.domain_id = kDomain + 1;
+  Stack stack("ckpt-eio", o);
+  stack.start_sim();
+  // Each save is two fsyncs (file, directory): the first save succeeds, every later one fails
+  // at the file's fsync. Only fsync is traced (seccomp-bpf): the daemon runs at full speed.
+  stack.start_daemon_under({"/usr/bin/strace", "-f", "-qq", "--seccomp-bpf", "-o", "/dev/null",
+                            "-E", "ASAN_OPTIONS=detect_leaks=0", "-e", "trace=fsync", "-e",
+                            "inject=fsync:error=EIO:when=3+"});
+  const bool failed = eventually(
+      [&] { return stack.daemon().err().find("checkpoint not saved") != std::string::npos; }, 30s);
+  const pid_t daemon = first_child(stack.daemon().pid());
+  INFO("daemon stderr:\n" << stack.daemon().err());
+  REQUIRE(failed);
+  CHECK_THAT(stack.daemon().err(), Catch::Contains("(fsync-file failed: Input/output error)"));
+  // Still cycling after the failures: more estimates come, the error is logged once.
+  std::this_thread::sleep_for(3s);
+  CHECK(stack.daemon().running());
+  const std::string log = stack.daemon().err();
+  CHECK(log.find("checkpoint not saved") == log.rfind("checkpoint not saved"));
+  REQUIRE(daemon > 0);
+  ::kill(daemon, SIGTERM);
+  REQUIRE(stack.daemon().wait(10s).has_value());
+
+  // The first (good) checkpoint is still there, and the next start resumes from it.
+  const std::string ckpt = stack.path("state/hp1.ckpt");
+  CHECK(std::filesystem::exists(ckpt));
+  CHECK_FALSE(std::filesystem::exists(ckpt + ".tmp"));
+  stack.start_daemon();
+  CHECK(eventually(
+      [&] { return stack.daemon().err().find("resumed from checkpoint") != std::string::npos; },
+      20s));
+  // The first save: after the fourth cycle, whose index is 3.
+  CHECK_THAT(stack.daemon().err(), Catch::Contains("(cycle 3,"));
   stack.daemon().signal(SIGTERM);
   stack.daemon().wait(10s);
 }

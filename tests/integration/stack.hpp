@@ -74,11 +74,23 @@ class Stack {
 
   void start_daemon(const std::vector<std::string>& extra_args = {},
                     const std::vector<std::string>& env = {}) {
+    start_daemon_under({}, extra_args, env);
+  }
+  // The daemon as the last argument of `wrapper` (e.g. strace and its options; wrapper[0] an
+  // absolute path), or directly when `wrapper` is empty.
+  void start_daemon_under(const std::vector<std::string>& wrapper,
+                          const std::vector<std::string>& extra_args = {},
+                          const std::vector<std::string>& env = {}) {
     write_config(port_);
-    std::vector<std::string> args{"--config", path("config.json")};
+    std::vector<std::string> args;
+    if (!wrapper.empty()) {
+      args.assign(wrapper.begin() + 1, wrapper.end());
+      args.push_back(HVAC_TWIND_EXE);
+    }
+    args.insert(args.end(), {"--config", path("config.json")});
     args.insert(args.end(), extra_args.begin(), extra_args.end());
-    daemon_ = std::make_unique<Process>(HVAC_TWIND_EXE, args, path("daemon.out"),
-                                        path("daemon.err"), env);
+    daemon_ = std::make_unique<Process>(wrapper.empty() ? HVAC_TWIND_EXE : wrapper[0], args,
+                                        path("daemon.out"), path("daemon.err"), env);
   }
 
   void start_echo(double duration_s, const std::vector<std::string>& extra_args = {}) {
