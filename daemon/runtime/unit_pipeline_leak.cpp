@@ -1,5 +1,7 @@
 // UnitPipeline, leak detection: binds the detector to the model's leak-rate and charge outputs
 // and its compressor-speed input, steps it once per cycle and publishes the diagnosis.
+#include <algorithm>
+
 #include "daemon/runtime/unit_pipeline.hpp"
 
 namespace hvac_twin::runtime {
@@ -95,7 +97,7 @@ void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,
       .charge = estimates_valid ? y_[charge_output_] : 0.0,
       .charge_sigma = estimates_valid ? sigma_[charge_output_] : 0.0,
       .nameplate_charge = nameplate_charge_,
-      .leak_rate = estimates_valid ? y_[leak_output_] : 0.0,
+      .leak_rate = estimates_valid ? std::max(0.0, y_[leak_output_]) : 0.0,  // QP round-off
       .leak_rate_sigma = estimates_valid ? sigma_[leak_output_] : 0.0,
       .cusum = r.cusum,
       .threshold = leak_->threshold(),

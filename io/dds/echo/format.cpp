@@ -188,7 +188,7 @@ std::string to_text(const LeakDiagnosticRecord& r) {
   char line[512];
   const int n = std::snprintf(
       line, sizeof line,
-      "%s %-8s leak   %-7s charge %.3f ± %.3f kg (nameplate %.3f)  leak %.2f ± %.2f g/h  "
+      "%s %-8s leak   %-7s charge %.4f ± %.4f kg (nameplate %.3f)  leak %.2f ± %.2f g/h  "
       "CUSUM %.2f / %.2f  %s%s%s",
       clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), std::string(to_string(r.state)).c_str(),
       r.charge, r.charge_sigma, r.nameplate_charge, r.leak_rate, r.leak_rate_sigma, r.cusum,

@@ -177,7 +177,7 @@ TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm an
   const std::string text = echo::to_text_line(r);
   INFO(text);
   CHECK(text.find("leak   LEAK") != std::string::npos);
-  CHECK(text.find("charge 0.451 ± 0.004 kg (nameplate 0.500)") != std::string::npos);
+  CHECK(text.find("charge 0.4512 ± 0.0040 kg (nameplate 0.500)") != std::string::npos);
   CHECK(text.find("held: START_UP") != std::string::npos);
   r.hold = LeakHold::kNone;
   CHECK(echo::to_text_line(r).find("held") == std::string::npos);
