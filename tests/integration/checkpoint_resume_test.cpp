@@ -71,7 +71,7 @@ void watch(dds::Subscriber& sub, Seen& seen, std::chrono::milliseconds how_long)
 
 }  // namespace
 
-TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint; without it, a cold start",
+TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it, a cold start",
           "[integration][checkpoint]") {
   Stack stack("resume", resume_options());
   stack.start_sim();

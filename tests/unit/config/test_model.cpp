@@ -21,7 +21,7 @@ json& estimator(json& j) {
   return j["units"][0]["estimator"];
 }
 
-TEST_CASE("model type must be in the catalog; the message lists the known types", "[config]") {
+TEST_CASE("model type must be in the catalog, the message lists the known types", "[config]") {
   auto j = demo_json();
   model(j)["type"] = "zone";
   require_single_error(
@@ -231,7 +231,7 @@ std::string cells_config(std::string_view type, std::string_view parameters,
          std::string(initial_state) + "}}]}";
 }
 
-TEST_CASE("integer parameters must be integral; structural ones size the layout", "[config]") {
+TEST_CASE("integer parameters must be integral, structural ones size the layout", "[config]") {
   const ModelCatalog models = fake_catalog();
   const auto run = [&](std::string_view type, std::string_view params, std::string_view init) {
     return load_config_text(cells_config(type, params, init), models);

@@ -47,7 +47,7 @@ TEST_CASE("word order must suit the type: 16-bit values take ABCD or BADC only",
                        {R"(expected one of "ABCD", "CDAB", "BADC", "DCBA"; got "DCAB")"});
 }
 
-TEST_CASE("scale is a non-zero number; offset a number", "[config]") {
+TEST_CASE("scale is a non-zero number, offset a number", "[config]") {
   auto j = demo_json();
   point(j, 0)["scale"] = 0;
   require_single_error(load_json(j), "/units/0/points/0/scale",

@@ -109,7 +109,7 @@ TEST_CASE("integers are checked for range before conversion", "[config]") {
                        {"expected an integer in [1, 65535]; got 18446744073709551616"});
 }
 
-TEST_CASE("integers are checked for integrality; 502.0 is 502", "[config]") {
+TEST_CASE("integers are checked for integrality, 502.0 is 502", "[config]") {
   require_single_error(load(demo_with("\"port\": 15020", "\"port\": 1.5")), "/units/0/modbus/port",
                        {"expected an integer in [1, 65535]; got 1.5"});
   require_single_error(load(demo_with("\"address\": 0", "\"address\": 0.5")),

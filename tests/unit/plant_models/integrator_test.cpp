@@ -154,7 +154,7 @@ TEST_CASE("sensitivities of a stiff problem equal finite differences of the solu
     CHECK(F[c * 3] + F[c * 3 + 1] + F[c * 3 + 2] == Approx(1.0));
 }
 
-TEST_CASE("a recoverable model error makes CVODES retry; a fatal one fails the step",
+TEST_CASE("a recoverable model error makes CVODES retry, a fatal one fails the step",
           "[integrator]") {
   {
     const AdModel<Flaky> model{Flaky{}};
