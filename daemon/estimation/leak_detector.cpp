@@ -43,9 +43,11 @@ double LeakDetector::arl0(double k, double h) {
 LeakDetector::LeakDetector(const LeakDetectorOptions& options)
     : options_(options), k_(0.5 * options.design_shift_sigma) {
   // The threshold whose in-control run length is the designed time between false alarms,
-  // counted in decisions (ARL0 grows monotonically with h: bisection).
+  // counted in decisions (ARL0 grows monotonically with h: bisection). Two statistics that may
+  // each raise the alarm get twice the time each.
+  const double statistics = options.charge_allowance > 0.0 ? 2.0 : 1.0;
   const double decisions =
-      options.false_alarm_interval_days * 86400.0 / std::max(options.interval_s, 1.0);
+      statistics * options.false_alarm_interval_days * 86400.0 / std::max(options.interval_s, 1.0);
   double lo = 0.0, hi = 100.0;
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (lo + hi);
@@ -57,6 +59,18 @@ LeakDetector::LeakDetector(const LeakDetectorOptions& options)
 
 const LeakReport& LeakDetector::step(double t, double leak, double sigma, double compressor_hz,
                                      bool degraded) {
+  return step_with(t, leak, sigma, std::nan(""), 0.0, compressor_hz, degraded, false);
+}
+
+const LeakReport& LeakDetector::step(double t, double leak, double sigma, double charge,
+                                     double charge_sigma, double compressor_hz, bool degraded) {
+  return step_with(t, leak, sigma, charge, charge_sigma, compressor_hz, degraded,
+                   options_.charge_allowance > 0.0);
+}
+
+const LeakReport& LeakDetector::step_with(double t, double leak, double sigma, double charge,
+                                          double charge_sigma, double compressor_hz, bool degraded,
+                                          bool use_charge) {
   if (start_t_ < 0.0) start_t_ = t;
   const double dt = last_t_ < 0.0 ? 0.0 : std::max(0.0, t - last_t_);
   last_t_ = t;
@@ -83,24 +97,50 @@ const LeakReport& LeakDetector::step(double t, double leak, double sigma, double
     hold = HoldReason::kCycling;
   else if (t - running_since_ < options_.startup_s && running_since_ > start_t_)
     hold = HoldReason::kStartUp;
-  else if (degraded || !(sigma > 0.0) || !std::isfinite(leak))
+  else if (degraded || !(sigma > 0.0) || !std::isfinite(leak) ||
+           (use_charge && (!std::isfinite(charge) || !std::isfinite(charge_sigma))))
     hold = HoldReason::kDegraded;
   report_.hold = hold;
   if (hold != HoldReason::kNone) {
-    z_sum_ = z_time_ = 0.0;  // a held interval is discarded
+    z_sum_ = z_time_ = c_sum_ = c_var_sum_ = f_sum_ = 0.0;  // a held interval is discarded
     return report_;
   }
 
-  z_sum_ += dt * leak / sigma;
+  z_sum_ += dt * leak / std::max(sigma, options_.sigma_floor);
   z_time_ += dt;
+  if (use_charge) {
+    c_sum_ += dt * charge;
+    c_var_sum_ += dt * charge_sigma * charge_sigma;
+    f_sum_ += dt * compressor_hz;
+  }
   if (z_time_ < options_.interval_s) return report_;
 
-  // One decision on the interval's mean standardised leak rate.
+  // One decision on the interval's means.
   const double z = z_sum_ / z_time_;
-  z_sum_ = z_time_ = 0.0;
   ++report_.decisions;
   report_.statistic = z;
-  report_.cusum = std::max(0.0, report_.cusum + z - k_);
+  report_.rate_cusum = std::max(0.0, report_.rate_cusum + z - k_);
+  if (use_charge) {
+    const double c = c_sum_ / z_time_, c_var = c_var_sum_ / z_time_;
+    const std::size_t b = band(f_sum_ / z_time_);
+    if (!report_.reference_learned) {
+      band_sum_[b] += c * z_time_;
+      band_time_[b] += z_time_;
+      ref_time_ += z_time_;
+      report_.reference_learned = ref_time_ >= options_.reference_s;
+      report_.charge_reference = -1.0;
+    } else if (band_time_[b] > 0.0) {
+      report_.charge_reference = band_sum_[b] / band_time_[b];
+      const double a = options_.charge_allowance;
+      const double zc = (report_.charge_reference - c) / std::sqrt(a * a + c_var);
+      report_.charge_statistic = zc;
+      report_.charge_cusum = std::max(0.0, report_.charge_cusum + zc - k_);
+    } else {
+      report_.charge_reference = -1.0;  // a band the reference never saw: not judged
+    }
+  }
+  z_sum_ = z_time_ = c_sum_ = c_var_sum_ = f_sum_ = 0.0;
+  report_.cusum = std::max(report_.rate_cusum, report_.charge_cusum);
   const double S = report_.cusum;
   switch (report_.state) {
     case LeakState::kNormal:
@@ -125,6 +165,17 @@ const LeakReport& LeakDetector::step(double t, double leak, double sigma, double
   return report_;
 }
 
+std::size_t LeakDetector::band(double compressor_hz) const {
+  const double b = std::floor(compressor_hz / std::max(options_.reference_band_hz, 1.0));
+  return static_cast<std::size_t>(std::clamp(b, 0.0, kBands - 1.0));
+}
+
+double LeakDetector::reference_charge(double compressor_hz) const {
+  const std::size_t b = band(compressor_hz);
+  if (!report_.reference_learned || !(band_time_[b] > 0.0)) return -1.0;
+  return band_sum_[b] / band_time_[b];
+}
+
 void LeakDetector::save_state(std::span<double, kStateSize> out) const {
   std::size_t i = 0;
   const auto put = [&](double v) { out[i++] = v; };
@@ -145,6 +196,19 @@ void LeakDetector::save_state(std::span<double, kStateSize> out) const {
   put(next_start_);
   put(z_sum_);
   put(z_time_);
+  put(report_.rate_cusum);
+  put(report_.charge_cusum);
+  put(report_.charge_statistic);
+  put(report_.charge_reference);
+  put(c_sum_);
+  put(c_var_sum_);
+  put(f_sum_);
+  put(ref_time_);
+  put(report_.reference_learned ? 1.0 : 0.0);
+  for (std::size_t b = 0; b < kBands; ++b) {
+    put(band_sum_[b]);
+    put(band_time_[b]);
+  }
 }
 
 bool LeakDetector::restore_state(std::span<const double> in) {
@@ -155,8 +219,12 @@ bool LeakDetector::restore_state(std::span<const double> in) {
   };
   if (!whole_in(in[0], 0, 2) || !whole_in(in[1], 0, 5) || in[2] < 0.0 ||
       !whole_in(in[4], 0, 9e15) || !whole_in(in[9], 0, 1) || !whole_in(in[19], 0, 8) ||
-      !whole_in(in[20], 0, 7) || in[22] < 0.0)
+      !whole_in(in[20], 0, 7) || in[22] < 0.0 || in[23] < 0.0 || in[24] < 0.0 ||
+      in[2] != std::max(in[23], in[24]) || (in[26] < 0.0 && in[26] != -1.0) || in[28] < 0.0 ||
+      in[29] < 0.0 || in[30] < 0.0 || !whole_in(in[31], 0, 1))
     return false;
+  for (std::size_t b = 0; b < kBands; ++b)
+    if (in[33 + 2 * b] < 0.0) return false;  // time in a band (after its sum at 32 + 2b)
   std::size_t i = 0;
   const auto get = [&] { return in[i++]; };
   report_.state = static_cast<LeakState>(static_cast<int>(get()));
@@ -176,6 +244,19 @@ bool LeakDetector::restore_state(std::span<const double> in) {
   next_start_ = static_cast<int>(get());
   z_sum_ = get();
   z_time_ = get();
+  report_.rate_cusum = get();
+  report_.charge_cusum = get();
+  report_.charge_statistic = get();
+  report_.charge_reference = get();
+  c_sum_ = get();
+  c_var_sum_ = get();
+  f_sum_ = get();
+  ref_time_ = get();
+  report_.reference_learned = get() != 0.0;
+  for (std::size_t b = 0; b < kBands; ++b) {
+    band_sum_[b] = get();
+    band_time_[b] = get();
+  }
   return true;
 }
 

@@ -185,3 +185,164 @@ TEST_CASE("a restored detector continues exactly where the saved one was", "[lea
   CHECK_FALSE(fresh.restore_state(std::span<const double>(saved.data(), saved.size() - 1)));
   CHECK(fresh.report().decisions == 0);
 }
+
+TEST_CASE("the sigma floor keeps a collapsed sigma from reading as a leak", "[leak]") {
+  // A constrained filter's leak rate resting on its bound reports a tiny sigma; an excursion of
+  // 0.05 g/h at sigma 0.02 is 2.5 sigma without the floor, 0.5 with a 0.1 floor.
+  auto o = every_second(17520.0);
+  LeakDetector plain(o);
+  o.sigma_floor = 0.1;
+  LeakDetector floored(o);
+  for (int k = 0; k <= 200; ++k) {
+    plain.step(k, 0.05, 0.02, 50.0, false);
+    floored.step(k, 0.05, 0.02, 50.0, false);
+  }
+  CHECK(plain.report().state == LeakState::kLeak);
+  CHECK(floored.report().statistic == Approx(0.5));
+  CHECK(floored.report().cusum == 0.0);
+  CHECK(floored.report().state == LeakState::kNormal);
+  // Above the floor the filter's sigma is used as before.
+  LeakDetector same(o);
+  same.step(0.0, 0.3, 0.2, 50.0, false);
+  CHECK(same.step(1.0, 0.3, 0.2, 50.0, false).statistic == Approx(1.5));
+}
+
+TEST_CASE("the charge deficit: a reference first, then only a deficit beyond the allowance",
+          "[leak]") {
+  auto o = every_second(17520.0);
+  o.charge_allowance = 0.010;  // kg
+  o.reference_s = 10.0;        // ten decisions
+  LeakDetector d(o);
+  // Two statistics share the designed false-alarm rate: each gets twice the run length.
+  CHECK(d.threshold() > LeakDetector(every_second(17520.0)).threshold());
+  CHECK(LeakDetector::arl0(1.0, d.threshold()) == Approx(2.0 * 17520.0).epsilon(1e-6));
+  double t = 0.0;
+  const auto step = [&](double charge) {
+    return d.step(t++, 0.0, 0.4, charge, 0.001, 50.0, false);
+  };
+  step(0.54);
+  // The reference: the mean over the first ten decisions (0.53 and 0.55 alternating).
+  for (int k = 0; k < 10; ++k) {
+    CHECK_FALSE(d.report().reference_learned);
+    step(k % 2 ? 0.55 : 0.53);
+  }
+  CHECK(d.report().reference_learned);
+  // A wander inside the allowance (9 g below the reference) never accumulates.
+  for (int k = 0; k < 500; ++k)
+    step(0.531);
+  CHECK(d.report().charge_reference == Approx(0.54));
+  CHECK(d.report().charge_statistic == Approx(0.9).epsilon(0.01));
+  CHECK(d.report().charge_cusum == 0.0);
+  CHECK(d.report().state == LeakState::kNormal);
+  // A growing deficit (a leak of 1 g per decision): SUSPECT, then LEAK, from the charge alone
+  // while the leak-rate estimate says nothing.
+  double c = 0.54;
+  int decisions = 0;
+  while (d.report().state != LeakState::kLeak && decisions < 100) {
+    c -= 0.001;
+    step(c);
+    ++decisions;
+  }
+  CHECK(d.report().state == LeakState::kLeak);
+  CHECK(d.report().rate_cusum == 0.0);
+  CHECK(d.report().cusum == d.report().charge_cusum);
+  // The deficit passes the allowance after 10 decisions; (deficit/allowance - 1) adds
+  // 0.1, 0.2, ... so h ~ 6 takes about 11 more.
+  CHECK(decisions > 15);
+  CHECK(decisions < 30);
+  CHECK(d.report().first_suspect_s < d.report().first_leak_s);
+}
+
+TEST_CASE("the charge is judged against the reference of its compressor-speed band", "[leak]") {
+  // The model's charge offset depends on the operating point: here the estimate reads 0.54 at
+  // 25 Hz and 0.52 at 85 Hz without any leak.
+  auto o = every_second(17520.0);
+  o.charge_allowance = 0.010;
+  o.reference_s = 20.0;
+  LeakDetector d(o);
+  double t = 0.0;
+  d.step(t++, 0.0, 0.4, 0.54, 0.001, 25.0, false);
+  for (int k = 0; k < 20; ++k) {              // the reference period runs at 25 Hz only
+    CHECK(d.reference_charge(25.0) == -1.0);  // not before the period is over
+    d.step(t++, 0.0, 0.4, 0.54, 0.001, 25.0, false);
+  }
+  REQUIRE(d.report().reference_learned);
+  // At 85 Hz the band has no reference: not judged on the charge, however low it reads.
+  for (int k = 0; k < 200; ++k)
+    d.step(t++, 0.0, 0.4, 0.52, 0.001, 85.0, false);
+  CHECK(d.report().charge_reference == -1.0);
+  CHECK(d.reference_charge(85.0) == -1.0);
+  CHECK(d.reference_charge(25.0) == Approx(0.54));
+  CHECK(d.reference_charge(39.9) == Approx(0.54));  // the 20-40 Hz band
+  CHECK(d.report().charge_cusum == 0.0);
+  CHECK(d.report().state == LeakState::kNormal);
+  // Back at 25 Hz with 30 g missing: judged against 0.54, and raised.
+  for (int k = 0; k < 20; ++k)
+    d.step(t++, 0.0, 0.4, 0.51, 0.001, 25.0, false);
+  CHECK(d.report().charge_reference == Approx(0.54));
+  CHECK(d.report().state == LeakState::kLeak);
+}
+
+TEST_CASE("without the charge, or with the allowance at 0, the detector is the rate CUSUM",
+          "[leak]") {
+  auto o = every_second(17520.0);
+  o.reference_s = 5.0;
+  LeakDetector rate_only(o);  // allowance 0: the charge is ignored
+  o.charge_allowance = 0.010;
+  LeakDetector no_charge(o);  // allowance set, but the five-argument step
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0.8, 1.0);
+  for (int k = 0; k < 300; ++k) {
+    const double z = g(rng);
+    const double charge = 0.5 - 0.001 * k;  // a deficit that would alarm if it were used
+    const auto& a = rate_only.step(k, z, 1.0, charge, 0.001, 50.0, false);
+    const auto& b = no_charge.step(k, z, 1.0, 50.0, false);
+    REQUIRE(a.cusum == a.rate_cusum);
+    REQUIRE(a.charge_cusum == 0.0);
+    REQUIRE(b.charge_cusum == 0.0);
+    REQUIRE(b.charge_reference < 0.0);
+  }
+}
+
+TEST_CASE("a restored detector continues the charge deficit exactly", "[leak]") {
+  auto o = every_second(17520.0);
+  o.charge_allowance = 0.010;
+  o.reference_s = 20.0;
+  o.interval_s = 4.0;  // several steps per decision: a partial interval is saved
+  LeakDetector original(o);
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> g(0.0, 0.003);
+  double t = 0.0, c = 0.54;
+  for (; t < 150.0; t += 1.0) {
+    c -= 0.0002;
+    original.step(t, 0.1, 0.4, c + g(rng), 0.001, 50.0, false);
+  }
+  REQUIRE(original.report().charge_reference > 0.0);
+  REQUIRE(original.report().charge_cusum > 0.0);
+  std::array<double, LeakDetector::kStateSize> saved{};
+  original.save_state(saved);
+  LeakDetector restored(o);
+  REQUIRE(restored.restore_state(saved));
+  for (; t < 400.0; t += 1.0) {
+    c -= 0.0002;
+    const double charge = c + g(rng);
+    const LeakReport& a = original.step(t, 0.1, 0.4, charge, 0.001, 50.0, false);
+    const LeakReport& b = restored.step(t, 0.1, 0.4, charge, 0.001, 50.0, false);
+    REQUIRE(a.state == b.state);
+    REQUIRE(a.cusum == b.cusum);
+    REQUIRE(a.charge_cusum == b.charge_cusum);
+    REQUIRE(a.charge_reference == b.charge_reference);
+    REQUIRE(a.decisions == b.decisions);
+  }
+  CHECK(original.report().state == LeakState::kLeak);
+  CHECK(original.report().first_leak_s == restored.report().first_leak_s);
+  // A saved state whose CUSUM is not the larger of its two parts is refused.
+  auto bad = saved;
+  bad[23] = bad[2] + 1.0;
+  LeakDetector fresh(o);
+  CHECK_FALSE(fresh.restore_state(bad));
+  bad = saved;
+  bad[26] = -0.5;  // a reference is -1 (none) or a charge
+  CHECK_FALSE(fresh.restore_state(bad));
+  CHECK(fresh.report().decisions == 0);
+}
