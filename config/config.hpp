@@ -73,8 +73,9 @@ struct ModelConfig {
 //  kConstrainedEnkf: ensemble Kalman filter, members projected onto the constraints
 enum class EstimatorType { kEkf, kConstrainedEkf, kConstrainedEnkf };
 
-// Refrigerant leak detection (models with an augmented "leak_rate" state): a one-sided CUSUM on
-// the standardised leak-rate estimate, one decision per interval_s of judgeable operation.
+// Refrigerant leak detection (models with an augmented "leak_rate" state): one-sided CUSUMs on
+// the standardised leak-rate estimate and on the charge deficit against references learnt per
+// compressor-speed band, one decision per interval_s of judgeable operation.
 struct LeakDetectionConfig {
   double interval_s = 1800.0;                 // judgeable model time per decision [s]
   double design_shift_sigma = 2.0;            // the leak size (in sigma) found quickest
@@ -83,6 +84,12 @@ struct LeakDetectionConfig {
   double startup_s = 900.0;                   // held this long after a compressor start [s]
   double min_compressor_speed_hz = 5.0;       // below: the compressor is off [Hz]
   double max_starts_per_hour = 3.0;           // more starts in the last hour: cycling, held
+  double leak_sigma_floor = 0.1;              // smallest leak-rate sigma divided by [g/h]
+  // The charge estimate's in-control wander within a speed band, as a fraction of the
+  // nameplate charge (0: the charge-deficit statistic off).
+  double charge_allowance = 0.02;
+  double reference_s = 64800.0;     // judgeable time the reference charges are learnt over [s]
+  double reference_band_hz = 20.0;  // width of the compressor-speed bands [Hz]
 };
 
 struct EstimatorConfig {

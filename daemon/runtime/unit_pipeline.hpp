@@ -146,7 +146,7 @@ class UnitPipeline {
   // speed input).
   std::unique_ptr<est::LeakDetector> leak_;
   std::size_t leak_output_ = 0, charge_output_ = 0, speed_input_ = 0;
-  double nameplate_charge_ = 0.0;      // [kg], the charge state's upper bound
+  double nameplate_charge_ = 0.0;      // [kg], the charge state's initial value
   double false_alarm_days_ = 0.0;      // designed, published with every diagnostic
   double model_time_s_ = 0.0;          // model time since the filter started [s]
   std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began

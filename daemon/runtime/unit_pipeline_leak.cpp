@@ -56,7 +56,7 @@ void UnitPipeline::bind_leak_detection(const config::LeakDetectionConfig& c) {
   leak_output_ = *leak_out;
   charge_output_ = *charge_out;
   speed_input_ = *speed;
-  nameplate_charge_ = layout.states[*charge_state].max;
+  nameplate_charge_ = layout.states[*charge_state].initial;
   false_alarm_days_ = c.false_alarm_interval_days;
   est::LeakDetectorOptions o;
   o.interval_s = c.interval_s;
@@ -66,18 +66,25 @@ void UnitPipeline::bind_leak_detection(const config::LeakDetectionConfig& c) {
   o.startup_s = c.startup_s;
   o.min_compressor_speed_hz = c.min_compressor_speed_hz;
   o.max_starts_per_hour = c.max_starts_per_hour;
+  o.sigma_floor = c.leak_sigma_floor;
+  o.charge_allowance = c.charge_allowance * nameplate_charge_;
+  o.reference_s = c.reference_s;
+  o.reference_band_hz = c.reference_band_hz;
   leak_ = std::make_unique<est::LeakDetector>(o);
 }
 
 void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimates_valid) {
   if (!estimates_valid) return;  // nothing to judge; the last report stands
-  const est::LeakReport& r = leak_->step(model_time_s_, y_[leak_output_], sigma_[leak_output_],
-                                         u_[speed_input_], quality != dds::EstimateQuality::kGood);
+  const est::LeakReport& r =
+      leak_->step(model_time_s_, y_[leak_output_], sigma_[leak_output_], y_[charge_output_],
+                  sigma_[charge_output_], u_[speed_input_], quality != dds::EstimateQuality::kGood);
   if (r.state == last_leak_state_) return;
   const auto level = r.state == est::LeakState::kNormal ? spdlog::level::info : spdlog::level::warn;
-  log_->log(level, "unit {}: refrigerant leak state {} -> {} (CUSUM {:.2f}, threshold {:.2f})",
-            unit_.id, est::to_string(last_leak_state_), est::to_string(r.state), r.cusum,
-            r.threshold);
+  log_->log(level,
+            "unit {}: refrigerant leak state {} -> {} (CUSUM leak rate {:.2f}, charge deficit "
+            "{:.2f}, threshold {:.2f})",
+            unit_.id, est::to_string(last_leak_state_), est::to_string(r.state), r.rate_cusum,
+            r.charge_cusum, r.threshold);
   last_leak_state_ = r.state;
 }
 
@@ -91,6 +98,7 @@ void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,
     if (suspect_since_ns_ == 0) suspect_since_ns_ = stamp_ns;
     if (r.state == est::LeakState::kLeak && leak_since_ns_ == 0) leak_since_ns_ = stamp_ns;
   }
+  const double reference = std::max(0.0, leak_->reference_charge(u_[speed_input_]));  // -1: none
   publisher_->publish(dds::LeakDiagnosticSample{
       .state = wire_state(r.state),
       .hold = estimates_valid ? wire_hold(r.hold) : dds::LeakHold::kWarmUp,
@@ -100,6 +108,9 @@ void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,
       .leak_rate = estimates_valid ? std::max(0.0, y_[leak_output_]) : 0.0,  // QP round-off
       .leak_rate_sigma = estimates_valid ? sigma_[leak_output_] : 0.0,
       .cusum = r.cusum,
+      .rate_cusum = r.rate_cusum,
+      .charge_cusum = r.charge_cusum,
+      .charge_reference = estimates_valid ? reference : 0.0,
       .threshold = leak_->threshold(),
       .false_alarm_interval_days = false_alarm_days_,
       .decisions = r.decisions,

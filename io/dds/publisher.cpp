@@ -185,14 +185,23 @@ PublishStatus UnitPublisher::publish(const HealthSample& s) noexcept {
 }
 
 PublishStatus UnitPublisher::publish(const LeakDiagnosticSample& s) noexcept {
-  const double values[] = {
-      s.charge,          s.charge_sigma, s.nameplate_charge, s.leak_rate,
-      s.leak_rate_sigma, s.cusum,        s.threshold,        s.false_alarm_interval_days};
+  const double values[] = {s.charge,
+                           s.charge_sigma,
+                           s.nameplate_charge,
+                           s.leak_rate,
+                           s.leak_rate_sigma,
+                           s.cusum,
+                           s.rate_cusum,
+                           s.charge_cusum,
+                           s.threshold,
+                           s.charge_reference,
+                           s.false_alarm_interval_days};
   for (const double v : values) {
     if (!finite(v)) return reject(PublishStatus::kNonFinite);
   }
   if (s.charge_sigma < 0.0 || s.leak_rate_sigma < 0.0 || s.threshold < 0.0 ||
-      s.false_alarm_interval_days < 0.0) {
+      s.false_alarm_interval_days < 0.0 || s.rate_cusum < 0.0 || s.charge_cusum < 0.0 ||
+      s.charge_reference < 0.0) {
     return reject(PublishStatus::kInvalidValue);
   }
   if (s.timestamp_ns < 0 || s.suspect_since_ns < 0 || s.leak_since_ns < 0) {
@@ -207,6 +216,9 @@ PublishStatus UnitPublisher::publish(const LeakDiagnosticSample& s) noexcept {
   w.leak_rate = s.leak_rate;
   w.leak_rate_sigma = s.leak_rate_sigma;
   w.cusum = s.cusum;
+  w.rate_cusum = s.rate_cusum;
+  w.charge_cusum = s.charge_cusum;
+  w.charge_reference = s.charge_reference;
   w.threshold = s.threshold;
   w.false_alarm_interval_days = s.false_alarm_interval_days;
   w.decisions = s.decisions;

@@ -104,6 +104,9 @@ LeakDiagnosticRecord convert(const hvac_twin_LeakDiagnostic& w, dds_time_t sourc
   r.leak_rate = w.leak_rate;
   r.leak_rate_sigma = w.leak_rate_sigma;
   r.cusum = w.cusum;
+  r.rate_cusum = w.rate_cusum;
+  r.charge_cusum = w.charge_cusum;
+  r.charge_reference = w.charge_reference;
   r.threshold = w.threshold;
   r.false_alarm_interval_days = w.false_alarm_interval_days;
   r.decisions = w.decisions;

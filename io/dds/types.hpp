@@ -121,7 +121,8 @@ enum class LeakHold : std::uint8_t {
 };
 
 // The refrigerant charge and leak diagnosis of the publisher's unit, published every cycle.
-// Every double must be finite; sigmas, leak_rate, thresholds and intervals >= 0.
+// Every double must be finite; sigmas, leak_rate, CUSUMs, the reference, thresholds and
+// intervals >= 0.
 struct LeakDiagnosticSample {
   LeakState state = LeakState::kNormal;
   LeakHold hold = LeakHold::kWarmUp;
@@ -130,7 +131,10 @@ struct LeakDiagnosticSample {
   double nameplate_charge = 0.0;  // [kg]
   double leak_rate = 0.0;         // [g/h]
   double leak_rate_sigma = 0.0;   // [g/h]
-  double cusum = 0.0;             // [sigma units]
+  double cusum = 0.0;             // max(rate_cusum, charge_cusum) [sigma units]
+  double rate_cusum = 0.0;        // on the leak-rate estimate [sigma units]
+  double charge_cusum = 0.0;      // on the charge deficit [sigma units]
+  double charge_reference = 0.0;  // [kg], 0: none (being learnt, or a speed band never seen)
   double threshold = 0.0;         // [sigma units]
   double false_alarm_interval_days = 0.0;
   std::uint64_t decisions = 0;

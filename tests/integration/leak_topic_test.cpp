@@ -104,8 +104,12 @@ TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once
   CHECK(first.unit == "hp1");
   CHECK(first.nameplate_charge == Approx(0.5));
   CHECK(first.quality != dds::EstimateQuality::kNotReady);
+  // The charge may read above the nameplate (the model's structural offset; its bound is
+  // 1.2 x nameplate), never far from it.
   CHECK(first.charge > 0.3);
-  CHECK(first.charge <= first.nameplate_charge + 1e-9);
+  CHECK(first.charge <= 1.2 * first.nameplate_charge + 1e-9);
+  CHECK(first.charge_reference == 0.0);  // learnt only after the warm-up
+  CHECK(first.charge_cusum == 0.0);
   // Warm-up holds judgement for an hour of model time: the hold and its reason are published.
   CHECK(first.hold == dds::LeakHold::kWarmUp);
   CHECK(first.state == dds::LeakState::kNormal);
@@ -120,7 +124,7 @@ TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once
           std::get<dds::LeakDiagnosticRecord>(got[i - 1]).cycle);
 }
 
-TEST_CASE("a killed daemon loses liveliness within the lease; a hung one misses its deadline",
+TEST_CASE("a killed daemon loses liveliness within the lease, a hung one misses its deadline",
           "[integration][leak][dds]") {
   dds::Participant participant(reader_config(57));
   dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{}, kWallPeriod);

@@ -97,6 +97,9 @@ Json to_json(const LeakDiagnosticRecord& r) {
               {"leak_rate", r.leak_rate},
               {"leak_rate_sigma", r.leak_rate_sigma},
               {"cusum", r.cusum},
+              {"rate_cusum", r.rate_cusum},
+              {"charge_cusum", r.charge_cusum},
+              {"charge_reference", r.charge_reference},
               {"threshold", r.threshold},
               {"false_alarm_interval_days", r.false_alarm_interval_days},
               {"decisions", r.decisions},
@@ -189,10 +192,10 @@ std::string to_text(const LeakDiagnosticRecord& r) {
   const int n = std::snprintf(
       line, sizeof line,
       "%s %-8s leak   %-7s charge %.4f ± %.4f kg (nameplate %.3f)  leak %.2f ± %.2f g/h  "
-      "CUSUM %.2f / %.2f  %s%s%s",
+      "CUSUM rate %.2f charge %.2f / %.2f  %s%s%s",
       clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), std::string(to_string(r.state)).c_str(),
-      r.charge, r.charge_sigma, r.nameplate_charge, r.leak_rate, r.leak_rate_sigma, r.cusum,
-      r.threshold, std::string(to_string(r.quality)).c_str(),
+      r.charge, r.charge_sigma, r.nameplate_charge, r.leak_rate, r.leak_rate_sigma, r.rate_cusum,
+      r.charge_cusum, r.threshold, std::string(to_string(r.quality)).c_str(),
       r.hold == LeakHold::kNone ? "" : "  held: ",
       r.hold == LeakHold::kNone ? "" : std::string(to_string(r.hold)).c_str());
   return written(line, n);

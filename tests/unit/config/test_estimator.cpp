@@ -6,7 +6,7 @@
 using namespace hvac_twin::config;
 using namespace hvac_twin::config::test;
 
-TEST_CASE("estimator.type selects the filter; the default is the constrained EKF", "[config]") {
+TEST_CASE("estimator.type selects the filter, the default is the constrained EKF", "[config]") {
   auto j = demo_json();
   {
     const auto r = load_json(j);
@@ -42,11 +42,15 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
     CHECK(e.checkpoint_every_cycles == 60);
     CHECK(e.leak_detection.interval_s == 1800.0);
     CHECK(e.leak_detection.false_alarm_interval_days == 3650.0);
+    CHECK(e.leak_detection.charge_allowance == 0.02);
+    CHECK(e.leak_detection.reference_s == 64800.0);
   }
   auto& est = j["units"][0]["estimator"];
   est["checkpoint_every_cycles"] = 0;
-  est["leak_detection"] = {
-      {"interval_s", 600}, {"false_alarm_interval_days", 365}, {"max_starts_per_hour", 6}};
+  est["leak_detection"] = {{"interval_s", 600},        {"false_alarm_interval_days", 365},
+                           {"max_starts_per_hour", 6}, {"charge_allowance", 0},
+                           {"reference_s", 7200},      {"reference_band_hz", 10},
+                           {"leak_sigma_floor", 0.5}};
   {
     const auto r = load_json(j);
     require_ok(r);
@@ -56,7 +60,19 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
     CHECK(e.leak_detection.false_alarm_interval_days == 365.0);
     CHECK(e.leak_detection.max_starts_per_hour == 6.0);
     CHECK(e.leak_detection.design_shift_sigma == 2.0);  // not given: the default
+    CHECK(e.leak_detection.charge_allowance == 0.0);    // 0: the deficit statistic off
+    CHECK(e.leak_detection.reference_s == 7200.0);
+    CHECK(e.leak_detection.reference_band_hz == 10.0);
+    CHECK(e.leak_detection.leak_sigma_floor == 0.5);
   }
+  est["leak_detection"]["charge_allowance"] = 1.5;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/charge_allowance",
+                       {"[0, 1]", "got 1.5"});
+  est["leak_detection"]["charge_allowance"] = 0.02;
+  est["leak_detection"]["reference_band_hz"] = 0.5;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/reference_band_hz",
+                       {"[1, 1000]", "got 0.5"});
+  est["leak_detection"]["reference_band_hz"] = 20;
   est["leak_detection"]["interval_s"] = -1;
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/interval_s",
                        {"(0, 86400]", "got -1"});

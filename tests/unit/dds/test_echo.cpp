@@ -152,6 +152,9 @@ TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm an
   r.leak_rate = 2.1;
   r.leak_rate_sigma = 0.3;
   r.cusum = 14.0;
+  r.rate_cusum = 3.5;
+  r.charge_cusum = 14.0;
+  r.charge_reference = 0.5312;
   r.threshold = 12.0;
   r.false_alarm_interval_days = 3650.0;
   r.decisions = 17;
@@ -167,10 +170,13 @@ TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm an
   CHECK(j.at("charge").get<double>() == 0.4512);
   CHECK(j.at("leak_rate").get<double>() == 2.1);
   CHECK(j.at("threshold").get<double>() == 12.0);
+  CHECK(j.at("rate_cusum").get<double>() == 3.5);
+  CHECK(j.at("charge_cusum").get<double>() == 14.0);
+  CHECK(j.at("charge_reference").get<double>() == 0.5312);
   CHECK(j.at("decisions") == 17);
   CHECK(j.at("leak_since_ns") == 6);
   CHECK(j.at("quality") == "DEGRADED");
-  CHECK(j.size() == 19);  // every wire field plus "topic"
+  CHECK(j.size() == 22);  // every wire field plus "topic"
 
   setenv("TZ", "UTC", 1);
   tzset();
@@ -178,6 +184,7 @@ TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm an
   INFO(text);
   CHECK(text.find("leak   LEAK") != std::string::npos);
   CHECK(text.find("charge 0.4512 ± 0.0040 kg (nameplate 0.500)") != std::string::npos);
+  CHECK(text.find("CUSUM rate 3.50 charge 14.00 / 12.00") != std::string::npos);
   CHECK(text.find("held: START_UP") != std::string::npos);
   r.hold = LeakHold::kNone;
   CHECK(echo::to_text_line(r).find("held") == std::string::npos);

@@ -206,6 +206,9 @@ TEST_CASE("the leak diagnostic and the fused-points provenance round-trip", "[dd
   leak.leak_rate = 2.0833;
   leak.leak_rate_sigma = 0.61;
   leak.cusum = 7.25;
+  leak.rate_cusum = 1.5;
+  leak.charge_cusum = 7.25;
+  leak.charge_reference = 0.5204;
   leak.threshold = 12.5;
   leak.false_alarm_interval_days = 3650.0;
   leak.decisions = 99;
@@ -239,6 +242,9 @@ TEST_CASE("the leak diagnostic and the fused-points provenance round-trip", "[dd
   CHECK(l.leak_rate == leak.leak_rate);
   CHECK(l.leak_rate_sigma == leak.leak_rate_sigma);
   CHECK(l.cusum == 7.25);
+  CHECK(l.rate_cusum == 1.5);
+  CHECK(l.charge_cusum == 7.25);
+  CHECK(l.charge_reference == 0.5204);
   CHECK(l.threshold == 12.5);
   CHECK(l.false_alarm_interval_days == 3650.0);
   CHECK(l.decisions == 99);
@@ -275,7 +281,13 @@ TEST_CASE("the leak diagnostic and the fused-points provenance round-trip", "[dd
   bad.leak_rate_sigma = -1.0;
   CHECK(publisher.publish(bad) == PublishStatus::kInvalidValue);
   bad = leak;
+  bad.charge_cusum = -0.5;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidValue);
+  bad = leak;
+  bad.charge_reference = std::numeric_limits<double>::infinity();
+  CHECK(publisher.publish(bad) == PublishStatus::kNonFinite);
+  bad = leak;
   bad.leak_since_ns = -1;
   CHECK(publisher.publish(bad) == PublishStatus::kInvalidTimestamp);
-  CHECK(publisher.stats().rejected() == 3);
+  CHECK(publisher.stats().rejected() == 5);
 }
