@@ -30,7 +30,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
-#include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -38,8 +38,8 @@
 #include "daemon/estimation/enkf.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/heat_pump/hp_layout.hpp"
+#include "tests/bench/heat_pump_scenario.hpp"
 #include "tests/bench/svg_plot.hpp"
-#include "tests/simulator/scenario.hpp"
 
 using namespace hvac_twin;
 using namespace hvac_twin::plant::hp;
@@ -104,22 +104,6 @@ double chi2_quantile(double z, double dof) {
   return dof * std::pow(1.0 - a + z * std::sqrt(a), 3.0);
 }
 
-// Sensor noise (what the truth's measurements carry: sigma = rel * |y| + abs) and what the
-// filters assume: sensor noise plus representativeness error. A 10-cell model does not see the
-// wall temperature at the same place as a 20-cell truth; with the sensor noise alone the
-// innovations are hundreds of times their predicted variance. Five times the sensor sigma was
-// the smallest factor tried (1, 2.5, 5) that keeps the heat-flow errors low.
-struct Measured {
-  std::size_t output;
-  double rel_sigma, abs_sigma;
-};
-constexpr double kFilterNoiseFactor = 5.0;
-
-const std::vector<Measured> kMeasured{
-    {kSuctionPressure, 0.005, 0.0},  {kDischargePressure, 0.005, 0.0}, {kCondWallTempIn, 0.0, 0.2},
-    {kCondWallTempOut, 0.0, 0.2},    {kEvapWallTempIn, 0.0, 0.2},      {kEvapWallTempOut, 0.0, 0.2},
-    {kZoneAirTemperature, 0.0, 0.05}};
-
 const std::vector<std::string> kShared{"charge", "M_cond", "h_liquid_line", "h_suction_line",
                                        "T_air",  "T_mass", "Q_int"};
 
@@ -167,39 +151,28 @@ int main(int argc, char** argv) {
     }
   }
 
-  // Truth.
-  const auto truth = plant::create_model("heat_pump_r32", {{"cells", 20},
-                                                           {"cond_ua_air", 750.0 * 0.9},
-                                                           {"evap_ua_air", 450.0 * 1.1},
-                                                           {"comp_eta_is_peak", 0.70 * 0.95},
-                                                           {"comp_eta_v0", 0.95 * 0.95}});
-  auto scenario = sim::make_scenario("heat_pump_r32", *truth, sim::ScenarioOptions{});
-  std::vector<double> xt = scenario->initial_state();
-  std::vector<double> u(kNumInputs, 0.0), yt(truth->num_outputs());
-  u[kIndoorFan] = u[kOutdoorFan] = 1.0;
-  plant::IntegratorOptions truth_options;
-  truth_options.rel_tol = 1e-8;
-  plant::Integrator truth_integrator(*truth, truth_options);
+  // Truth (tests/bench/heat_pump_scenario.hpp).
+  bench::HeatPumpTruth truth;
+  const std::vector<double>& xt = truth.x();
+  const std::vector<double>& yt = truth.y();
 
   // Filters on the nominal model.
-  const plant::ParameterMap filter_params{{"cells", 10}, {"augment_fouling", 1}};
   std::vector<FilterRun> runs;
   for (const char* name : {"EKF", "constrained EKF", "constrained EnKF"}) {
     FilterRun r;
     r.name = name;
-    r.model = std::make_unique<TimedModel>(plant::create_model("heat_pump_r32", filter_params));
-    std::vector<double> q;
-    for (const auto& s : r.model->layout().states)
-      q.push_back(s.process_noise);
+    r.model = std::make_unique<TimedModel>(
+        plant::create_model("heat_pump_r32", bench::filter_parameters()));
+    const std::vector<double> q = bench::layout_process_noise(*r.model);
     if (r.name == "constrained EnKF") {
       est::EnkfOptions o;
       o.members = members;
       o.threads = threads;
-      r.filter = std::make_unique<est::ConstrainedEnkf>(*r.model, q, kMeasured.size(), o);
+      r.filter = std::make_unique<est::ConstrainedEnkf>(*r.model, q, bench::kMeasured.size(), o);
     } else {
       est::EkfOptions o;
       o.constrained = r.name == "constrained EKF";
-      r.filter = std::make_unique<est::Ekf>(*r.model, q, kMeasured.size(), o);
+      r.filter = std::make_unique<est::Ekf>(*r.model, q, bench::kMeasured.size(), o);
     }
     for (const auto& s : kShared)
       r.shared.push_back(*r.model->layout().state(s));
@@ -207,10 +180,8 @@ int main(int argc, char** argv) {
   }
   std::vector<std::size_t> truth_shared;
   for (const auto& s : kShared)
-    truth_shared.push_back(*truth->layout().state(s));
+    truth_shared.push_back(*truth.model().layout().state(s));
 
-  std::mt19937_64 rng(7);
-  std::normal_distribution<double> g(0.0, 1.0);
   std::vector<double> times_h, truth_p, truth_h;
   const int steps = static_cast<int>(hours * 3600.0 / period);
   const double warmup_s = 600.0;
@@ -222,26 +193,18 @@ int main(int argc, char** argv) {
 
   for (int k = 0; k < steps; ++k) {
     const double t = k * period;
-    truth->outputs(xt, u, yt);
-    scenario->drive(t, period, xt, yt, u);
+    std::vector<double>& u = truth.drive(t, period);
     // Speed steps every 20 min and valve steps every 30 min on top of the controllers.
     u[kCompressorSpeed] = std::clamp(
         u[kCompressorSpeed] + (static_cast<int>(t / 1200.0) % 2 ? 8.0 : -8.0), 20.0, 90.0);
     u[kValveOpening] *= static_cast<int>(t / 1800.0) % 2 ? 1.05 : 0.95;
-    if (!truth_integrator.step(xt, u, period, {}).ok()) {
-      std::fprintf(stderr, "truth integration failed at t = %g s\n", t);
+    try {
+      truth.advance(period);
+    } catch (const std::runtime_error& e) {
+      std::fprintf(stderr, "%s at t = %g s\n", e.what(), t);
       return 1;
     }
-    truth->outputs(xt, u, yt);
-    std::vector<est::Measurement> z;
-    std::vector<double> y_measured(truth->num_outputs(), std::nan(""));
-    for (const auto& m : kMeasured) {
-      const double sd = m.rel_sigma * std::abs(yt[m.output]) + m.abs_sigma;
-      const double v = yt[m.output] + sd * g(rng);
-      const double sd_filter = kFilterNoiseFactor * sd;
-      z.push_back({m.output, v, sd_filter * sd_filter, true});
-      y_measured[m.output] = v;
-    }
+    const std::vector<est::Measurement>& z = truth.measurements();
     const double t_end = t + period;
     const bool scoring = t_end >= warmup_s;
     if (scoring) {
@@ -255,17 +218,7 @@ int main(int argc, char** argv) {
       std::vector<double> y(r.model->num_outputs()), sigma(r.model->num_outputs());
       std::vector<est::MeasurementReport> reports(z.size());
       if (!r.started) {
-        // As the daemon starts: the model's guess at the measured conditions, settled.
-        std::vector<double> x0(n), s0;
-        r.model->initial_guess(u, y_measured, x0);
-        plant::Integrator settle(*r.model, plant::IntegratorOptions{});
-        settle.step(x0, u, 600.0, {});
-        // The settled guess is consistent; a fifth of the layout's default spread. (With the
-        // full spread the first nonlinear update lands in a stiff corner and the first
-        // predictions take seconds.)
-        for (const auto& s : r.model->layout().states)
-          s0.push_back(0.2 * s.initial_std);
-        r.filter->reset(x0, s0);
+        bench::start_filter(*r.model, *r.filter, u, truth.y_measured());
         r.filter->update(z, u, reports);
         r.started = true;
       } else {
