@@ -26,6 +26,7 @@ struct StackOptions {
   std::uint64_t seed = 1;
   std::string base_config = "config/demo.json";    // relative to the source tree
   std::function<void(nlohmann::json&)> customize;  // last edit of the configuration
+  std::vector<std::string> sim_args;               // more simulator options (e.g. --leak)
 };
 
 class Stack {
@@ -47,13 +48,15 @@ class Stack {
   // Starts the simulator (port 0: ephemeral, learnt from its first line) and returns its port.
   int start_sim(int port = 0) {
     write_config(port == 0 ? 1 : port);  // the simulator reads the same file
-    sim_ = std::make_unique<Process>(
-        HVAC_TWIN_SIM_EXE,
-        std::vector<std::string>{
-            "--config", path("config.json"), "--port", std::to_string(port), "--seed",
-            std::to_string(o_.seed), "--step", std::to_string(o_.sim_step_s), "--truth-csv",
-            path("truth-" + std::to_string(++sim_starts_) + ".csv"), "--quiet"},
-        path("sim.out"), path("sim.err"));
+    std::vector<std::string> args{
+        "--config",    path("config.json"),
+        "--port",      std::to_string(port),
+        "--seed",      std::to_string(o_.seed),
+        "--step",      std::to_string(o_.sim_step_s),
+        "--truth-csv", path("truth-" + std::to_string(++sim_starts_) + ".csv"),
+        "--quiet"};
+    args.insert(args.end(), o_.sim_args.begin(), o_.sim_args.end());
+    sim_ = std::make_unique<Process>(HVAC_TWIN_SIM_EXE, args, path("sim.out"), path("sim.err"));
     const std::regex line(R"(127\.0\.0\.1:(\d+) unit id)");
     std::smatch m;
     std::string out;
