@@ -126,6 +126,11 @@ int decimals_for(double sigma) {
   return std::clamp(static_cast<int>(-std::floor(std::log10(sigma))), 0, 6);
 }
 
+// The value as printed with `decimals`: a value that rounds to zero is 0, not "-0".
+double rounded_sign(double value, int decimals) {
+  return std::abs(value) < 0.5 * std::pow(10.0, -decimals) ? 0.0 : value;
+}
+
 // The text snprintf wrote into `line` (cut at its size).
 template <std::size_t N>
 std::string written(const char (&line)[N], int n) {
@@ -145,10 +150,11 @@ std::string flags_suffix(std::uint32_t flags) {
 std::string to_text(const VirtualSensorRecord& r) {
   const int d = decimals_for(r.sigma);
   char line[512];
-  const int n = std::snprintf(
-      line, sizeof line, "%s %-8s %-32s %12.*f ± %-9.*f %-8s %s%s",
-      clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), r.name.c_str(), d, r.value, d, r.sigma,
-      r.eng_unit.c_str(), std::string(to_string(r.quality)).c_str(), flags_suffix(r.flags).c_str());
+  const int n =
+      std::snprintf(line, sizeof line, "%s %-8s %-32s %12.*f ± %-9.*f %-8s %s%s",
+                    clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), r.name.c_str(), d,
+                    rounded_sign(r.value, d), d, r.sigma, r.eng_unit.c_str(),
+                    std::string(to_string(r.quality)).c_str(), flags_suffix(r.flags).c_str());
   return written(line, n);
 }
 

@@ -123,6 +123,13 @@ TEST_CASE("echo formats: JSON has every field, text is one aligned line", "[dds]
   CHECK(text.rfind("22:20:05 hp1      zone_air_temperature ", 0) == 0);
   CHECK(text.find("21.43 ± 0.05") != std::string::npos);
   CHECK(text.find("degC     GOOD  [predict_only,constraint_active]") != std::string::npos);
+  // A value that rounds to zero at the sigma's digits prints as 0, not -0.
+  VirtualSensorRecord near_zero = sample_vs_record();
+  near_zero.value = -0.004;
+  near_zero.sigma = 2.0;
+  CHECK(echo::to_text_line(Record(near_zero)).find(" 0 ± 2 ") != std::string::npos);
+  near_zero.value = -0.6;
+  CHECK(echo::to_text_line(Record(near_zero)).find(" -1 ± 2 ") != std::string::npos);
 
   HealthRecord health;
   health.unit = "hp1";
