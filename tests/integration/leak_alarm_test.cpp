@@ -47,8 +47,7 @@ StackOptions leaking_heat_pump() {
 
 }  // namespace
 
-TEST_CASE("a leaking unit raises LEAK on the topic from the charge deficit",
-          "[integration][leak][dds]") {
+TEST_CASE("a leaking unit raises LEAK on the leak topic, end to end", "[integration][leak][dds]") {
   Stack stack("leak-alarm", leaking_heat_pump());
   dds::Participant participant([] {
     config::DdsConfig c;
