@@ -105,7 +105,9 @@ void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,
       .charge = estimates_valid ? y_[charge_output_] : 0.0,
       .charge_sigma = estimates_valid ? sigma_[charge_output_] : 0.0,
       .nameplate_charge = nameplate_charge_,
-      .leak_rate = estimates_valid ? std::max(0.0, y_[leak_output_]) : 0.0,  // QP round-off
+      // The filter's leak rate is signed (its wander goes both ways; the leak_rate virtual
+      // sensor shows it); the diagnosis reports the loss it implies, >= 0.
+      .leak_rate = estimates_valid ? std::max(0.0, y_[leak_output_]) : 0.0,
       .leak_rate_sigma = estimates_valid ? sigma_[leak_output_] : 0.0,
       .cusum = r.cusum,
       .rate_cusum = r.rate_cusum,
