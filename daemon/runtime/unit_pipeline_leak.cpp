@@ -2,6 +2,7 @@
 // and its compressor-speed input, steps it once per cycle and publishes the diagnosis.
 #include <algorithm>
 
+#include "daemon/runtime/leak_options.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
 
 namespace hvac_twin::runtime {
@@ -58,19 +59,7 @@ void UnitPipeline::bind_leak_detection(const config::LeakDetectionConfig& c) {
   speed_input_ = *speed;
   nameplate_charge_ = layout.states[*charge_state].initial;
   false_alarm_days_ = c.false_alarm_interval_days;
-  est::LeakDetectorOptions o;
-  o.interval_s = c.interval_s;
-  o.design_shift_sigma = c.design_shift_sigma;
-  o.false_alarm_interval_days = c.false_alarm_interval_days;
-  o.warm_up_s = c.warm_up_s;
-  o.startup_s = c.startup_s;
-  o.min_compressor_speed_hz = c.min_compressor_speed_hz;
-  o.max_starts_per_hour = c.max_starts_per_hour;
-  o.sigma_floor = c.leak_sigma_floor;
-  o.charge_allowance = c.charge_allowance * nameplate_charge_;
-  o.reference_s = c.reference_s;
-  o.reference_band_hz = c.reference_band_hz;
-  leak_ = std::make_unique<est::LeakDetector>(o);
+  leak_ = std::make_unique<est::LeakDetector>(leak_detector_options(c, nameplate_charge_));
 }
 
 void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimates_valid) {

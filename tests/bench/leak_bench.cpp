@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
 
   bench::LeakRunOptions base = bench::daemon_settings();
   base.period_s = period;
-  const double nameplate_g = 500.0;
+  const double nameplate_g = 1e3 * bench::kNameplateChargeKg;
   const double fast = nameplate_g * 0.10 / 24.0, slow = nameplate_g * 0.02 / 24.0;  // g/h
   if (quick) base = bench::short_form(base);
   std::vector<Row> rows;
@@ -145,10 +145,12 @@ int main(int argc, char** argv) {
     const auto& row = rows[i];
     const auto& r = results[i];
     char charge[32], referred[32], qc[32], qe[32], held[64], fa[16];
-    std::snprintf(charge, sizeof charge, "%.1f/%.1f", 100.0 * r.charge_mae / 0.5,
-                  100.0 * r.charge_max / 0.5);
-    std::snprintf(referred, sizeof referred, "%.1f/%.1f", 100.0 * r.referred_mae / 0.5,
-                  100.0 * r.referred_max / 0.5);
+    std::snprintf(charge, sizeof charge, "%.1f/%.1f",
+                  100.0 * r.charge_mae / bench::kNameplateChargeKg,
+                  100.0 * r.charge_max / bench::kNameplateChargeKg);
+    std::snprintf(referred, sizeof referred, "%.1f/%.1f",
+                  100.0 * r.referred_mae / bench::kNameplateChargeKg,
+                  100.0 * r.referred_max / bench::kNameplateChargeKg);
     std::snprintf(qc, sizeof qc, "%.0f (%.1f%%)", r.qc_mae, 100.0 * r.qc_mape);
     std::snprintf(qe, sizeof qe, "%.0f (%.1f%%)", r.qe_mae, 100.0 * r.qe_mape);
     std::snprintf(held, sizeof held, "%.1f/%.1f/%.1f/%.1f/%.1f", r.held_s[1] / 3600.0,

@@ -29,6 +29,7 @@
 
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/runtime/leak_options.hpp"
 #include "plant_models/catalog.hpp"
 #include "tests/bench/heat_pump_scenario.hpp"
 
@@ -111,18 +112,20 @@ struct LeakRunResult {
 };
 
 // What the daemon runs: the model layout's noise and bounds (set for leak detection in
-// plant_models/heat_pump/heat_pump.cpp, from runs of this benchmark), and the detector with the
-// defaults of the daemon's configuration (config/config.hpp, LeakDetectionConfig): the
-// charge-deficit CUSUM with an allowance of 2 % of the nameplate charge (10 g) over speed-band
-// references averaged over 18 h of judgeable operation, and a 0.1 g/h sigma floor. Before the
+// plant_models/heat_pump/heat_pump.cpp, from runs of this benchmark), and the detector as the
+// daemon builds it from its configuration's defaults (config/config.hpp, LeakDetectionConfig;
+// runtime::leak_detector_options): the charge-deficit CUSUM with an allowance of 2 % of the
+// nameplate charge (10 g) over speed-band references averaged over 18 h of judgeable
+// operation, and a 0.1 g/h sigma floor. Before the
 // layout was set so (charge random walk 1e-6 kg/sqrt(s), leak rate >= 0 at 0.01 g/h/sqrt(s),
 // charge <= nameplate) a 46 g loss moved the charge estimate by 3 g and 22 h of a 2.08 g/h leak
 // raised no alarm.
+// The nameplate charge of heat_pump_r32 at its default parameters, truth and filter alike [kg].
+inline constexpr double kNameplateChargeKg = 0.5;
+
 inline LeakRunOptions daemon_settings() {
   LeakRunOptions o;
-  o.detector.charge_allowance = 0.02 * 0.5;
-  o.detector.reference_s = 18.0 * 3600.0;
-  o.detector.sigma_floor = 0.1;
+  o.detector = runtime::leak_detector_options(config::LeakDetectionConfig{}, kNameplateChargeKg);
   return o;
 }
 

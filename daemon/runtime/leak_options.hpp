@@ -1,0 +1,29 @@
+// The leak detector's options from the unit's configuration: what the daemon runs, and what
+// leak_bench validates (tests/bench/leak_scenario.hpp builds its detector with this too).
+#pragma once
+
+#include "config/config.hpp"
+#include "daemon/estimation/leak_detector.hpp"
+
+namespace hvac_twin::runtime {
+
+// The allowance is configured as a fraction of the nameplate charge [kg]; the detector takes it
+// in the charge's unit.
+inline est::LeakDetectorOptions leak_detector_options(const config::LeakDetectionConfig& c,
+                                                      double nameplate_charge_kg) {
+  est::LeakDetectorOptions o;
+  o.interval_s = c.interval_s;
+  o.design_shift_sigma = c.design_shift_sigma;
+  o.false_alarm_interval_days = c.false_alarm_interval_days;
+  o.warm_up_s = c.warm_up_s;
+  o.startup_s = c.startup_s;
+  o.min_compressor_speed_hz = c.min_compressor_speed_hz;
+  o.max_starts_per_hour = c.max_starts_per_hour;
+  o.sigma_floor = c.leak_sigma_floor;
+  o.charge_allowance = c.charge_allowance * nameplate_charge_kg;
+  o.reference_s = c.reference_s;
+  o.reference_band_hz = c.reference_band_hz;
+  return o;
+}
+
+}  // namespace hvac_twin::runtime
