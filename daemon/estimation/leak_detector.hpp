@@ -106,6 +106,7 @@ class LeakDetector {
                          double compressor_hz, bool degraded);
 
   [[nodiscard]] const LeakReport& report() const { return report_; }
+  [[nodiscard]] const LeakDetectorOptions& options() const { return options_; }
   // The learnt reference charge of the speed band `compressor_hz` falls in, once the reference
   // period is over; -1 before, or for a band the reference period never ran in.
   [[nodiscard]] double reference_charge(double compressor_hz) const;

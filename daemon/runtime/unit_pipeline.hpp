@@ -107,6 +107,8 @@ class UnitPipeline {
   bool resume_from_checkpoint();  // true: restored; false: cold start (reason logged)
   void save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle);
   void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
+  // The leak detector's state and learnt reference charges, for the log.
+  [[nodiscard]] std::string describe_leak_detector() const;
   void publish_leak(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                     bool estimates_valid);
   void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
@@ -151,7 +153,8 @@ class UnitPipeline {
   double model_time_s_ = 0.0;          // model time since the filter started [s]
   std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began
   std::int64_t leak_since_ns_ = 0;     // wall time of the first LEAK in this episode
-  est::LeakState last_leak_state_ = est::LeakState::kNormal;
+  est::LeakState last_leak_state_ = est::LeakState::kNormal;  // the last one logged
+  bool references_logged_ = false;  // the learnt reference charges were logged
 
   // Crash-safe checkpoints (estimator.checkpoint_every_cycles > 0).
   std::unique_ptr<CheckpointStore> checkpoints_;

@@ -48,12 +48,19 @@ bool UnitPipeline::resume_from_checkpoint() {
     // The filter state is good: keep it; the detector alone starts over (warm-up again).
     log_->warn("unit {}: the leak detector's saved state was refused; it starts over", unit_.id);
   }
+  if (leak_) {
+    // Transitions and references are logged against what was restored, not against a
+    // fresh NORMAL: a unit resumed in LEAK does not announce NORMAL -> LEAK again.
+    last_leak_state_ = leak_->report().state;
+    references_logged_ = leak_->report().reference_learned;
+  }
   model_time_s_ = s.model_time_s;
   const double age_s = static_cast<double>(realtime_ns() - s.wall_time_ns) * 1e-9;
   const auto charge = model_->layout().state("charge");
-  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{})", unit_.id,
+  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{})", unit_.id,
              checkpoints_->path(), s.cycle, age_s,
-             charge ? fmt::format(", charge {:.4f} kg", s.x[*charge]) : std::string());
+             charge ? fmt::format(", charge {:.4f} kg", s.x[*charge]) : std::string(),
+             leak_ ? "; leak detector " + describe_leak_detector() : std::string());
   return true;
 }
 

@@ -1,6 +1,9 @@
 // UnitPipeline, leak detection: binds the detector to the model's leak-rate and charge outputs
 // and its compressor-speed input, steps it once per cycle and publishes the diagnosis.
+#include <spdlog/fmt/fmt.h>
+
 #include <algorithm>
+#include <string>
 
 #include "daemon/runtime/leak_options.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
@@ -67,6 +70,12 @@ void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimat
   const est::LeakReport& r =
       leak_->step(model_time_s_, y_[leak_output_], sigma_[leak_output_], y_[charge_output_],
                   sigma_[charge_output_], u_[speed_input_], quality != dds::EstimateQuality::kGood);
+  if (r.reference_learned && !references_logged_) {
+    // The unit as commissioned: what every later deficit is measured from.
+    log_->info("unit {}: leak detector learnt its reference charges: {}", unit_.id,
+               describe_leak_detector());
+    references_logged_ = true;
+  }
   if (r.state == last_leak_state_) return;
   const auto level = r.state == est::LeakState::kNormal ? spdlog::level::info : spdlog::level::warn;
   log_->log(level,
@@ -75,6 +84,26 @@ void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimat
             unit_.id, est::to_string(last_leak_state_), est::to_string(r.state), r.rate_cusum,
             r.charge_cusum, r.threshold);
   last_leak_state_ = r.state;
+}
+
+std::string UnitPipeline::describe_leak_detector() const {
+  const est::LeakReport& r = leak_->report();
+  std::string s = fmt::format("state {}, {} decisions, reference charges ", est::to_string(r.state),
+                              r.decisions);
+  if (!r.reference_learned) return s + "not learnt yet";
+  // Per compressor-speed band the reference period ran in (the detector's bands).
+  const double width = std::max(leak_->options().reference_band_hz, 1.0);
+  bool any = false;
+  for (std::size_t b = 0; b < est::LeakDetector::kBands; ++b) {
+    const double lo = static_cast<double>(b) * width;
+    const double reference = leak_->reference_charge(lo + 0.5 * width);
+    if (reference < 0.0) continue;
+    s += fmt::format("{}{:.0f}-{} Hz {:.4f} kg", any ? ", " : "", lo,
+                     b + 1 < est::LeakDetector::kBands ? fmt::format("{:.0f}", lo + width) : "",
+                     reference);
+    any = true;
+  }
+  return s + " (other speeds judged on the leak rate alone)";
 }
 
 void UnitPipeline::publish_leak(std::int64_t stamp_ns, std::uint64_t cycle,

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <span>
 #include <thread>
 
@@ -37,7 +38,8 @@ StackOptions resume_options() {
     e["settle_s"] = 300.0;
     e["checkpoint_every_cycles"] = 4;
     // Short warm-up and decisions, so the detector has history worth keeping within seconds.
-    e["leak_detection"] = {{"warm_up_s", 30.0}, {"interval_s", 20.0}, {"startup_s", 0.0}};
+    e["leak_detection"] = {
+        {"warm_up_s", 30.0}, {"interval_s", 20.0}, {"startup_s", 0.0}, {"reference_s", 40.0}};
   };
   return o;
 }
@@ -96,6 +98,7 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   CHECK((before.first_charge->flags & dds::kFlagColdStart) != 0);
   CHECK(before.leak->decisions >= 2);
   CHECK(before.leak->hold != dds::LeakHold::kWarmUp);
+  CHECK_THAT(first_log, Catch::Contains("learnt its reference charges"));
   const double initial_sigma = before.first_charge->sigma;
   CHECK(before.charge->sigma < 0.5 * initial_sigma);  // the filter learnt the charge
   const std::string ckpt = stack.path("state/hp1.ckpt");
@@ -104,11 +107,17 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   // Second run, same state directory: resumes.
   std::vector<dds::Record> drain;
   reader.take(drain);
+  const std::size_t first_run_bytes = stack.daemon().err().size();  // the log file appends
   stack.start_daemon();
   Seen after;
   watch(reader, after, 4s);
   INFO("second run:\n" << stack.daemon().err());
-  CHECK_THAT(stack.daemon().err(), Catch::Contains("resumed from checkpoint"));
+  const std::string second_log = stack.daemon().err().substr(first_run_bytes);
+  CHECK_THAT(second_log, Catch::Contains("resumed from checkpoint"));
+  // The log says what the detector resumed with, and does not announce as new what it had.
+  CHECK(std::regex_search(second_log, std::regex("leak detector state NORMAL, [1-9][0-9]* "
+                                                 "decisions, reference charges [0-9]+-")));
+  CHECK_THAT(second_log, !Catch::Contains("learnt its reference charges"));
   REQUIRE(after.first_charge.has_value());
   REQUIRE(after.leak.has_value());
   CHECK((after.first_charge->flags & dds::kFlagColdStart) == 0);
