@@ -83,10 +83,11 @@ TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once
   Stack stack("leak-late", heat_pump_options(56));
   stack.start_sim();
   stack.start_daemon();
-  INFO("daemon stderr:\n" << stack.daemon().err());
   // Let the daemon publish a few cycles with nobody listening in this process.
-  REQUIRE(
-      eventually([&] { return stack.daemon().err().find("estimates") != std::string::npos; }, 30s));
+  const bool estimating =
+      eventually([&] { return stack.daemon().err().find("estimates") != std::string::npos; }, 30s);
+  INFO("daemon stderr:\n" << stack.daemon().err());  // as it is now (INFO copies at once)
+  REQUIRE(estimating);
   std::this_thread::sleep_for(3 * kWallPeriod);
 
   const std::int64_t joined_ns = realtime_now_ns();
@@ -135,11 +136,12 @@ TEST_CASE("a killed daemon loses liveliness within the lease, a hung one misses 
     Stack stack("leak-kill", heat_pump_options(57));
     stack.start_sim();
     stack.start_daemon();
-    INFO("daemon stderr:\n" << stack.daemon().err());
     std::vector<dds::Record> got;
-    REQUIRE(take_until(
+    const bool alive = take_until(
         reader, got, [&] { return reader.status(dds::Topic::kLeakDiagnostic).alive_writers == 1; },
-        30s));
+        30s);
+    INFO("daemon stderr:\n" << stack.daemon().err());  // as it is now (INFO copies at once)
+    REQUIRE(alive);
     stack.daemon().signal(SIGKILL);
     REQUIRE(stack.daemon().wait(5s).has_value());
     const auto lost = time_to_lost_liveliness(reader, dds::Topic::kLeakDiagnostic, 4 * lease);
@@ -157,10 +159,11 @@ TEST_CASE("a killed daemon loses liveliness within the lease, a hung one misses 
     stack.start_sim();
     constexpr int kHangCycle = 12;
     stack.start_daemon({"--fault-hang-at-cycle", std::to_string(kHangCycle)});
-    INFO("daemon stderr:\n" << stack.daemon().err());
     std::vector<dds::Record> got;
-    REQUIRE(take_until(
-        reader, got, [&] { return stack.daemon().err().find("hangs") != std::string::npos; }, 30s));
+    const bool hung = take_until(
+        reader, got, [&] { return stack.daemon().err().find("hangs") != std::string::npos; }, 30s);
+    INFO("daemon stderr:\n" << stack.daemon().err());  // as it is now (INFO copies at once)
+    REQUIRE(hung);
     const auto hung_at = std::chrono::steady_clock::now();
     const std::uint32_t missed_before = reader.status(dds::Topic::kLeakDiagnostic).deadline_missed;
     std::optional<std::chrono::milliseconds> missed_after;
