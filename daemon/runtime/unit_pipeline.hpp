@@ -21,6 +21,7 @@
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
+#include "daemon/runtime/checkpoint_writer.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "io/dds/participant.hpp"
 #include "io/dds/publisher.hpp"
@@ -74,7 +75,10 @@ class UnitPipeline {
   // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
   [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
   [[nodiscard]] bool cold_start() const { return cold_start_; }  // cycle thread
-  [[nodiscard]] std::uint64_t checkpoint_failures() const { return checkpoint_failures_; }
+  // Checkpoint saves so far (any thread); all zero when checkpoints are off.
+  [[nodiscard]] CheckpointWriterStats checkpoint_stats() const {
+    return checkpoint_writer_ ? checkpoint_writer_->stats() : CheckpointWriterStats{};
+  }
   [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
   [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
@@ -159,10 +163,9 @@ class UnitPipeline {
   // Crash-safe checkpoints (estimator.checkpoint_every_cycles > 0).
   std::unique_ptr<CheckpointStore> checkpoints_;
   FilterSnapshot snapshot_;  // sized once; refilled in place before every save
+  std::unique_ptr<CheckpointWriter> checkpoint_writer_;  // after the store: stopped before it
   std::uint64_t cycles_since_checkpoint_ = 0;
-  std::uint64_t checkpoint_failures_ = 0;
-  bool checkpoint_failing_ = false;  // the last save failed (logged once per episode)
-  bool cold_start_ = true;           // no checkpoint restored since start
+  bool cold_start_ = true;  // no checkpoint restored since start
 
   bool initialized_ = false;
   bool have_prev_ = false;

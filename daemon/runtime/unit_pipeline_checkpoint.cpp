@@ -1,9 +1,8 @@
 // UnitPipeline, crash-safe checkpoints: the whole filter state (x, P, counters, model time and
 // the leak detector) is saved every estimator.checkpoint_every_cycles cycles through
 // CheckpointStore (tmp + fsync + rename + directory fsync), and a restarted daemon resumes from
-// it instead of starting over: the charge estimate and the leak evidence continue.
-#include <cerrno>
-#include <cstring>
+// it instead of starting over: the charge estimate and the leak evidence continue. The cycle
+// thread fills the snapshot; CheckpointWriter's thread writes it (the disk never delays a cycle).
 #include <filesystem>
 #include <stdexcept>
 
@@ -28,6 +27,7 @@ void UnitPipeline::open_checkpoints(const std::string& state_directory) {
   snapshot_.x.assign(n, 0.0);
   snapshot_.P.assign(n * n, 0.0);
   snapshot_.leak_detector.assign(leak_block, 0.0);
+  checkpoint_writer_ = std::make_unique<CheckpointWriter>(*checkpoints_, snapshot_, log_, unit_.id);
 }
 
 bool UnitPipeline::resume_from_checkpoint() {
@@ -80,17 +80,7 @@ void UnitPipeline::save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle) {
   if (leak_)
     leak_->save_state(std::span<double, est::LeakDetector::kStateSize>(
         snapshot_.leak_detector.data(), est::LeakDetector::kStateSize));
-  const SaveStatus st = checkpoints_->save(snapshot_);
-  if (st.ok()) {
-    if (checkpoint_failing_) log_->info("unit {}: checkpoints are saved again", unit_.id);
-    checkpoint_failing_ = false;
-    return;
-  }
-  ++checkpoint_failures_;
-  if (!checkpoint_failing_)  // once per episode: a full disk must not flood the journal
-    log_->error("unit {}: checkpoint not saved ({} failed: {}); the previous one is kept", unit_.id,
-                to_string(st.failed_step), std::strerror(st.error));
-  checkpoint_failing_ = true;
+  checkpoint_writer_->submit(snapshot_);  // saved on the writer thread
 }
 
 }  // namespace hvac_twin::runtime

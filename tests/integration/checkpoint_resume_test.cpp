@@ -15,6 +15,7 @@
 #include "io/dds/participant.hpp"
 #include "io/dds/subscriber.hpp"
 #include "stack.hpp"
+#include "strace_support.hpp"
 
 using namespace hvac_twin;
 using namespace hvac_twin::test;
@@ -148,27 +149,9 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   stack.daemon().wait(10s);
 }
 
-namespace {
-
-// The first child of `pid` (the daemon under strace), or 0.
-pid_t first_child(pid_t pid) {
-  std::ifstream f("/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children");
-  pid_t child = 0;
-  f >> child;
-  return child;
-}
-
-bool strace_works() {
-  Process probe("/usr/bin/strace", {"-qq", "-o", "/dev/null", "/bin/true"}, "/dev/null",
-                "/dev/null");
-  return probe.wait(10s) == 0;
-}
-
-}  // namespace
-
 TEST_CASE("fsync failing with EIO keeps the daemon running and the previous checkpoint",
           "[integration][checkpoint]") {
-  if (!std::filesystem::exists("/usr/bin/strace") || !strace_works()) {
+  if (!strace_works()) {
     WARN("SKIPPED: strace is missing or cannot trace here (.ci/setup installs it)");
     return;
   }
@@ -214,4 +197,58 @@ TEST_CASE("fsync failing with EIO keeps the daemon running and the previous chec
              Catch::Contains("(cycle " + std::to_string(decoded.snapshot.cycle) + ","));
   stack.daemon().signal(SIGTERM);
   stack.daemon().wait(10s);
+}
+
+TEST_CASE("a disk stalling every fsync for 1.5 s delays no cycle, checkpoints are still saved",
+          "[integration][checkpoint]") {
+  if (!strace_works()) {
+    WARN("SKIPPED: strace is missing or cannot trace here (.ci/setup installs it)");
+    return;
+  }
+  StackOptions o = resume_options();  // a 0.5 s wall cycle, a checkpoint every 4 cycles
+  o.domain_id = 118;
+  Stack stack("ckpt-stall", o);
+  stack.start_sim();
+  dds::Participant participant([&] {
+    config::DdsConfig c;
+    c.domain_id = o.domain_id;
+    return c;
+  }());
+  // Requests the daemon's deadline (2.5 wall periods, 1.25 s): a save on the cycle thread (two
+  // fsyncs, 3 s) would miss it every time.
+  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{false, false, true, false},
+                         std::chrono::milliseconds(500));
+  stack.start_daemon_under({"/usr/bin/strace", "-f", "-qq", "--seccomp-bpf", "-o", "/dev/null",
+                            "-E", "ASAN_OPTIONS=detect_leaks=0", "-e", "trace=fsync", "-e",
+                            "inject=fsync:delay_enter=1500000"});
+  std::vector<dds::Record> got;
+  const auto started = std::chrono::steady_clock::now();
+  while (got.empty() && std::chrono::steady_clock::now() - started < 30s)
+    reader.wait_and_take(100ms, got);
+  INFO("daemon stderr:\n" << stack.daemon().err());
+  REQUIRE_FALSE(got.empty());
+  const std::uint32_t missed_before = reader.status(dds::Topic::kEstimatorHealth).deadline_missed;
+
+  // 10 s: about 20 cycles, 5 checkpoints submitted, 3 saved.
+  std::uint64_t first = 0, last = 0, largest_gap = 0;
+  const auto end = std::chrono::steady_clock::now() + 10s;
+  while (std::chrono::steady_clock::now() < end) {
+    got.clear();
+    reader.wait_and_take(100ms, got);
+    for (const auto& rec : got) {
+      const std::uint64_t cycle = std::get<dds::HealthRecord>(rec).cycle;
+      if (first == 0) first = cycle;
+      if (last != 0) largest_gap = std::max(largest_gap, cycle - last);
+      last = cycle;
+    }
+  }
+  INFO("cycles " << first << ".." << last << ", largest gap " << largest_gap);
+  CHECK(last - first >= 16);
+  CHECK(largest_gap == 1);  // no tick skipped
+  CHECK(reader.status(dds::Topic::kEstimatorHealth).deadline_missed == missed_before);
+  CHECK(std::filesystem::exists(stack.path("state/hp1.ckpt")));
+  const pid_t daemon = first_child(stack.daemon().pid());
+  REQUIRE(daemon > 0);
+  ::kill(daemon, SIGTERM);
+  REQUIRE(stack.daemon().wait(10s).has_value());
 }
