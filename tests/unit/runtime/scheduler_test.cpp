@@ -11,19 +11,26 @@ using namespace std::chrono_literals;
 
 TEST_CASE("ticks fall on absolute deadlines: no drift however long the cycles take",
           "[scheduler]") {
-  const std::int64_t period = 5'000'000;  // 5 ms
+  const std::int64_t period = 20'000'000;  // 20 ms
   const std::int64_t start = monotonic_ns() + period;
   FixedRateScheduler s(start, period);
   Tick t;
+  std::uint64_t last = 0;
   for (std::uint64_t k = 0; k < 40; ++k) {
     REQUIRE(s.wait_next(t));
-    CHECK(t.index == k);
-    CHECK(t.due_ns == start + static_cast<std::int64_t>(k) * period);  // exact, not accumulated
+    // Exactly on the grid from the start, not accumulated from the previous wake-up.
+    CHECK(t.due_ns == start + static_cast<std::int64_t>(t.index) * period);
     CHECK(t.woke_ns >= t.due_ns);
-    // Work of varying length that stays inside the period.
+    if (k == 0) CHECK(t.index == 0);
+    if (k > 0) CHECK(t.ticks_since_last == t.index - last);
+    last = t.index;
+    // Work of varying length that stays well inside the period.
     std::this_thread::sleep_for(std::chrono::microseconds(500 * (k % 4)));
   }
-  CHECK(s.skipped_ticks() == 0);
+  // Every cycle fitted its period, so every tick ran; a machine too loaded to wake the thread
+  // within the 18 ms left would skip one (counted, and still on the grid), which is tolerated.
+  CHECK(s.skipped_ticks() == last - 39);
+  CHECK(s.skipped_ticks() <= 2);
 }
 
 TEST_CASE("a cycle that overruns skips the ticks it missed instead of bunching up", "[scheduler]") {
