@@ -5,7 +5,7 @@
 // Everything is built and sized in the constructor (start-up: allocates, throws on a bad model
 // or a DDS/Modbus set-up failure); run_cycle() never allocates and never throws.
 // Threads: the constructor, start() and stop() on the owner thread; run_cycle() on the unit's
-// cycle thread only.
+// cycle thread only; checkpoints are written by a CheckpointWriter thread of their own.
 #pragma once
 
 #include <spdlog/logger.h>
@@ -74,11 +74,7 @@ class UnitPipeline {
   [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
   // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
   [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
-  [[nodiscard]] bool cold_start() const { return cold_start_; }  // cycle thread
-  // Checkpoint saves so far (any thread); all zero when checkpoints are off.
-  [[nodiscard]] CheckpointWriterStats checkpoint_stats() const {
-    return checkpoint_writer_ ? checkpoint_writer_->stats() : CheckpointWriterStats{};
-  }
+  [[nodiscard]] bool cold_start() const { return cold_start_; }          // cycle thread
   [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
   [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
