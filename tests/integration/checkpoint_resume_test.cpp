@@ -244,7 +244,9 @@ TEST_CASE("a disk stalling every fsync for 1.5 s delays no cycle, checkpoints ar
   }
   INFO("cycles " << first << ".." << last << ", largest gap " << largest_gap);
   CHECK(last - first >= 16);
-  CHECK(largest_gap == 1);  // no tick skipped
+  // No tick skipped; one is tolerated for a sanitizer build's slow cycle. A save on the cycle
+  // thread (3 s) skips 5.
+  CHECK(largest_gap <= 2);
   CHECK(reader.status(dds::Topic::kEstimatorHealth).deadline_missed == missed_before);
   CHECK(std::filesystem::exists(stack.path("state/hp1.ckpt")));
   const pid_t daemon = first_child(stack.daemon().pid());
