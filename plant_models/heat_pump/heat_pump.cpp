@@ -37,39 +37,57 @@ HeatPumpR32::HeatPumpR32(const hp::Params& params)
   if (params.cells < 2 || n_ > kMaxCells)
     throw std::invalid_argument("heat pump: cells must be in [2, " + std::to_string(kMaxCells) +
                                 "]");
+  if (params.void_fraction < 0 || params.void_fraction > 2 || params.two_phase_htc < 0 ||
+      params.two_phase_htc > 1 || params.dp_distribution < 0 || params.dp_distribution > 1)
+    throw std::invalid_argument("heat pump: unknown closure");
   if (r32::ph_table().build_status() != r32::Status::kOk)
     throw std::runtime_error("heat pump: the R32 property table failed to build");
-  cache_key_.assign(2 * (n_ + 1) + 3, 0.0);
+  prof_cond_ = profile_options(p_, true, n_);
+  prof_evap_ = profile_options(p_, false, n_);
+  cache_key_.assign(2 * n_ + 10, 0.0);
 }
 
-HeatPumpR32::HeatPumpR32(const HeatPumpR32& other)
-    : p_(other.p_),
-      L_(other.L_),
-      n_(other.n_),
-      cache_key_(other.cache_key_),
-      cache_pc_(other.cache_pc_),
-      cache_pe_(other.cache_pe_),
-      cache_jac_(other.cache_jac_),
-      cache_valid_(other.cache_valid_),
-      pressure_eval_(std::make_unique<Eval<Dual<2>>>(*other.pressure_eval_)) {}
+hp::ProfileOptions HeatPumpR32::profile_options(const hp::Params& p, bool condenser,
+                                                std::size_t cells) {
+  const hp::CoilParams& coil = condenser ? p.cond : p.evap;
+  hp::ProfileOptions o;
+  o.alpha_liquid = p.htc_liquid;
+  o.alpha_two_phase = coil.htc_two_phase;
+  o.alpha_vapour = p.htc_vapour;
+  o.area = coil.inner_area / static_cast<double>(cells);
+  o.blend_h = p.htc_blend;
+  o.heat_sign = condenser ? 1.0 : -1.0;
+  o.void_fraction = static_cast<hp::VoidFraction>(p.void_fraction);
+  o.htc = p.two_phase_htc == 0 ? hp::TwoPhaseHtc::kConstant
+          : condenser          ? hp::TwoPhaseHtc::kCondensing
+                               : hp::TwoPhaseHtc::kBoiling;
+  o.quadrature = o.void_fraction == hp::VoidFraction::kSmith || o.htc != hp::TwoPhaseHtc::kConstant;
+  return o;
+}
 
-HeatPumpR32::~HeatPumpR32() = default;
-
-int HeatPumpR32::solve_pressures(const SideInputs<double>& in, double speed, double& p_cond,
+int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions& c, double& p_cond,
                                  double& p_evap, std::array<double, 4>& jac) const {
   const std::size_t N = n_;
   // The cache: inputs of the last solve.
   bool same = cache_valid_;
-  const auto key = [&](std::size_t i, double v) {
-    if (cache_key_[i] != v) same = false;
-    cache_key_[i] = v;
+  std::size_t at = 0;
+  const auto key = [&](double v) {
+    if (cache_key_[at] != v) same = false;
+    cache_key_[at++] = v;
   };
-  key(0, in.charge);
-  key(1, in.m_cond);
-  key(2, speed);
-  for (std::size_t k = 0; k <= N; ++k) {
-    key(3 + k, in.h_cond[k]);
-    key(4 + N + k, in.h_evap[k]);
+  key(in.charge);
+  key(in.m_cond);
+  key(c.speed);
+  key(c.t_out);
+  key(in.h_dl);
+  key(in.h_ll);
+  key(in.h_sl);
+  key(in.t_air);
+  key(in.g_cond);
+  key(in.g_evap);
+  for (std::size_t k = 0; k < N; ++k) {
+    key(in.h_cond[k]);
+    key(in.h_evap[k]);
   }
   if (same) {
     p_cond = cache_pc_;
@@ -82,15 +100,21 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, double speed, dou
   SideInputs<D> dv;
   dv.charge = in.charge;
   dv.m_cond = in.m_cond;
-  for (std::size_t k = 0; k <= N; ++k) {
+  dv.h_dl = in.h_dl;
+  dv.h_ll = in.h_ll;
+  dv.h_sl = in.h_sl;
+  for (std::size_t k = 0; k < N; ++k) {
     dv.h_cond[k] = in.h_cond[k];
     dv.h_evap[k] = in.h_evap[k];
   }
-  Eval<D>& e = *pressure_eval_;
+  dv.t_air = in.t_air;
+  dv.g_cond = in.g_cond;
+  dv.g_evap = in.g_evap;
   const auto newton = [&](double pc, double pe) {
     for (int it = 0; it < 40; ++it) {
       D r1, r2;
-      if (fill_sides(D(pc, {1.0, 0.0}), D(pe, {0.0, 1.0}), dv, speed, e, r1, r2) != kModelOk)
+      if (side_masses(D(pc, {1.0, 0.0}), D(pe, {0.0, 1.0}), dv, c, r1, r2,
+                      static_cast<Eval<D>*>(nullptr)) != kModelOk)
         return false;
       const std::array<double, 4> J{r1.d[0], r1.d[1], r2.d[0], r2.d[1]};
       const double det = J[0] * J[3] - J[1] * J[2];
@@ -136,24 +160,32 @@ std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
   const double h_dis = sat_c.h_v + 50e3;
   const double h_sub = sat_c.h_l - 9.5e3;  // about 5 K of subcooling
   const double h_suc = sat_e.h_v + 5e3;    // about 4 K of superheat
+  // Rated fans, the zone at t_zone; the friction at the rated speed.
+  std::vector<double> x(L_.size, 0.0);
+  x[L_.t_air] = t_zone_c;
+  if (L_.fouling != hp::kNone) x[L_.fouling] = p_.fouling;
+  const std::vector<double> u{p_.speed_rated, 0.35, 1.0, 1.0, t_out_c};
+  SideInputs<double> in = side_inputs(std::span<const double>(x), u);
+  const Conditions c{p_.speed_rated, t_out_c + kKelvin};
   // Condenser profile: desuperheating and condensing over the first 1 - phi of the cells, then
   // subcooled liquid; phi is chosen so that the two sides hold `charge`.
-  SideInputs<double> in;
   const auto profile = [&](double phi) {
     for (std::size_t k = 0; k < N; ++k) {
-      const double s = (static_cast<double>(k) + 0.5) / static_cast<double>(N);
+      const double s = (static_cast<double>(k) + 1.0) / static_cast<double>(N);  // cell outlet
       in.h_cond[k] = s < 1.0 - phi ? h_dis + (sat_c.h_l - h_dis) * s / (1.0 - phi)
                                    : sat_c.h_l - (sat_c.h_l - h_sub) * (s - 1.0 + phi) / phi;
       in.h_evap[k] = h_sub + (h_suc - h_sub) * s;
     }
-    in.h_cond[N] = h_sub;
-    in.h_evap[N] = h_suc;
+    in.h_dl = h_dis;
+    in.h_ll = h_sub;
+    in.h_sl = h_suc;
   };
   Eval<double> e;
   double mass_cond = 0.0, mass_evap = 0.0;  // residuals with zero masses are the masses
+  in.charge = in.m_cond = 0.0;
   const auto masses = [&](double phi) {
     profile(phi);
-    if (fill_sides(pc, pe, in, p_.speed_rated, e, mass_cond, mass_evap) != kModelOk)
+    if (side_masses(pc, pe, in, c, mass_cond, mass_evap, &e) != kModelOk)
       throw std::runtime_error("heat pump: no initial state at these temperatures");
     return mass_cond + mass_evap;
   };
@@ -166,22 +198,20 @@ std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
   }
   masses(0.5 * (lo + hi));
 
-  std::vector<double> x(L_.size, 0.0);
   x[L_.charge] = mass_cond + mass_evap;
   x[L_.m_cond] = mass_cond;
   for (std::size_t k = 0; k < N; ++k) {
     x[L_.h_cond[k]] = 1e-3 * in.h_cond[k];
     x[L_.h_evap[k]] = 1e-3 * in.h_evap[k];
-    x[L_.tw_cond[k]] = 0.5 * (e.cond[k].T - kKelvin + t_out_c);
-    x[L_.tw_evap[k]] = 0.5 * (e.evap[k].T - kKelvin + t_zone_c);
+    x[L_.tw_cond[k]] = 0.5 * (e.cond[k].T_out - kKelvin + t_out_c);
+    x[L_.tw_evap[k]] = 0.5 * (e.evap[k].T_out - kKelvin + t_zone_c);
   }
-  x[L_.h_ll] = 1e-3 * h_sub;
-  x[L_.h_sl] = 1e-3 * h_suc;
-  x[L_.t_air] = t_zone_c;
+  x[L_.h_dl] = 1e-3 * in.h_dl;
+  x[L_.h_ll] = 1e-3 * in.h_ll;
+  x[L_.h_sl] = 1e-3 * in.h_sl;
   x[L_.t_mass] = t_zone_c;
   if (L_.q_int != hp::kNone) x[L_.q_int] = p_.internal_gains;
   if (L_.leak != hp::kNone) x[L_.leak] = p_.leak_rate;
-  if (L_.fouling != hp::kNone) x[L_.fouling] = p_.fouling;
   return x;
 }
 
@@ -250,6 +280,8 @@ ModelLayout HeatPumpR32::make_layout() const {
   if (L_.fouling != hp::kNone)
     set(L_.fouling, "fouling", "1", 0.2, 1.5, 0.05, 1e-5, 1e-9, true,
         "outdoor-coil air-side UA factor, 1 = clean (random walk)");
+  set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
+      "discharge-line enthalpy: the condenser inlet");
 
   // Beyond the bounds: each side keeps some refrigerant (a side without refrigerant has no
   // pressure: the low side's 0.75 L of vapour at the table's lowest pressure hold about 2 g; a

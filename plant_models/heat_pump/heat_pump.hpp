@@ -1,22 +1,23 @@
 // R32 vapour-compression heat pump in cooling mode with the zone it serves, written once over
 // the scalar type (see plant_models/README.md for every equation, with units).
 //
-//   compressor -> condenser (N cells) -> liquid line -> expansion valve -> evaporator (N cells)
-//   -> suction line -> compressor;   the evaporator's air stream is the zone's air.
+//   compressor -> discharge line -> condenser (N cells) -> liquid line -> expansion valve
+//   -> evaporator (N cells) -> suction line -> compressor;   the evaporator's air is the zone's.
 //
 // Conservative formulation. The high-side refrigerant mass M_cond and the total charge are
 // states; the low-side mass is charge - M_cond. Their derivatives are flow differences
 // (dM_cond/dt = mdot_comp - mdot_valve, dcharge/dt = -leak), linear in the state, which a BDF
 // integrator preserves exactly, so the refrigerant inventory is conserved to round-off. The
 // condenser-inlet and evaporator-outlet pressures are algebraic: each is the pressure at which
-// the smoothed densities of that side's cells add up to its mass,
-//     sum_k V_k rho_s(p_k, h_k) = M,   p_k = the cell's pressure after friction,
-// solved by Newton's method (2 x 2, since the friction depends on the compressor flow) to
-// round-off; their derivatives with respect to the state follow from the implicit-function
-// theorem through one extra Newton step taken in the dual-number scalar. Within each side the
-// cell enthalpies follow the energy balances, and the internal mass flows follow from the cell
-// mass balances with one common dp/dt that makes the last cell's outflow equal the downstream
-// component's flow (a marching solution, affine in dp/dt).
+// the masses of that side's cells add up to its mass, solved by Newton's method (2 x 2, since the
+// friction depends on the compressor flow) to round-off; their derivatives with respect to the
+// state follow from the implicit-function theorem.
+//
+// Cells. A coil cell's state is its outlet enthalpy; its refrigerant mass and its heat exchange
+// with the wall are means over the profile between its inlet (the upstream state) and its outlet
+// (hp_profile.hpp), which makes the steady answers nearly independent of the cell count. The
+// cell balances march from each coil's inlet with one common dp/dt per side that makes the last
+// cell's outflow equal the downstream component's flow (affine in dp/dt).
 //
 // A model instance caches the last pressure solution (warm start, and reuse across the
 // derivative chunks of one Jacobian), so it serves one thread; AdModel::clone() makes another.
@@ -25,7 +26,6 @@
 #pragma once
 
 #include <array>
-#include <memory>
 #include <span>
 #include <vector>
 
@@ -34,6 +34,7 @@
 #include "plant_models/heat_pump/hp_components.hpp"
 #include "plant_models/heat_pump/hp_layout.hpp"
 #include "plant_models/heat_pump/hp_params.hpp"
+#include "plant_models/heat_pump/hp_profile.hpp"
 
 namespace hvac_twin::plant {
 
@@ -44,16 +45,14 @@ class HeatPumpR32 {
 
   explicit HeatPumpR32(const hp::Params& params);
   explicit HeatPumpR32(const ParameterMap& values) : HeatPumpR32(hp::params_from_map(values)) {}
-  // Copies have their own caches (a model instance serves one thread).
-  HeatPumpR32(const HeatPumpR32& other);
-  HeatPumpR32& operator=(const HeatPumpR32&) = delete;
-  HeatPumpR32(HeatPumpR32&&) noexcept = default;
-  ~HeatPumpR32();
 
   [[nodiscard]] static std::vector<ParameterInfo> parameter_info() { return hp::parameter_info(); }
   [[nodiscard]] ModelLayout layout() const { return make_layout(); }
   [[nodiscard]] const hp::Params& params() const { return p_; }
   [[nodiscard]] const hp::Layout& slots() const { return L_; }
+  // The cell-profile closures of one coil divided into `cells` cells (area per cell).
+  [[nodiscard]] static hp::ProfileOptions profile_options(const hp::Params& p, bool condenser,
+                                                          std::size_t cells);
 
   template <class S>
   int rhs(std::span<const S> x, std::span<const double> u, std::span<S> xdot) const;
@@ -72,10 +71,25 @@ class HeatPumpR32 {
   bool initial_guess(std::span<const double> u, std::span<const double> y,
                      std::span<double> x) const;
 
-  // One cell of refrigerant after the pressure solve.
+  // An adiabatic line cell (uniform state; smoothed density, see r32_smooth.hpp).
   template <class S>
-  struct Cell {
-    S h{}, p{}, rho{}, rho_p{}, rho_h{}, T{}, quality{};
+  struct LineCell {
+    S h{}, p{}, rho{}, rho_p{}, rho_h{}, T{};
+  };
+
+  // A coil cell: its ends at its pressure and the means over its profile.
+  template <class S>
+  struct CoilCell {
+    S p{};                              // Pa
+    S T_in{}, T_out{};                  // K, at the inlet (upstream state) and the outlet
+    S h_l{}, h_v{};                     // J/kg, saturation at the cell pressure
+    S mass{};                           // kg
+    S mass_p{}, mass_in{}, mass_out{};  // its partials: kg/Pa, kg/(J/kg), kg/(J/kg)
+    S mass_air{};                       // kg/K, through the air temperature
+    // The enthalpy content H = V mean(rho h) [J], as its partials less h_out times the mass's:
+    // the capacities of the consistent energy balance (H_x - h_out m_x; see the march).
+    S cap_p{}, cap_in{}, cap_out{}, cap_air{};  // m^3, kg, kg, kg J/(kg K)
+    S alpha{}, alpha_T{};                       // profile means: W/(m2 K) and W/(m2 K) K
   };
 
   // Everything one evaluation computes; rhs() and outputs() read what they need.
@@ -83,52 +97,68 @@ class HeatPumpR32 {
   struct Eval {
     S p_cond{}, p_evap{}, dp_cond{}, dp_evap{};
     hp::CompressorFlow<S> comp{};
-    S mdot_valve{}, leak{};                             // kg/s
-    std::array<Cell<S>, kMaxCells + 1> cond{}, evap{};  // [N] is the liquid / suction line
-    std::array<S, kMaxCells> q_cond{}, q_cond_air{};    // W: into the refrigerant / into wall
+    S mdot_valve{}, leak{};  // kg/s
+    LineCell<S> dl{}, ll{}, sl{};
+    std::array<CoilCell<S>, kMaxCells> cond{}, evap{};
+    std::array<S, kMaxCells> q_cond{}, q_cond_air{};  // W: into the refrigerant / into the wall
     std::array<S, kMaxCells> q_evap{}, q_evap_air{};
-    std::array<S, kMaxCells + 1> hdot_cond{}, hdot_evap{};  // J/(kg s)
+    std::array<S, kMaxCells> hdot_cond{}, hdot_evap{};  // J/(kg s)
+    S hdot_dl{}, hdot_ll{}, hdot_sl{};
     S pdot_cond{}, pdot_evap{};
     S t_air{}, t_mass{}, q_int{}, fouling{};
-    S q_zone{};  // W, heat the indoor unit puts into the zone (negative when cooling)
+    S t_air_dot{}, t_mass_dot{};  // K/s, the zone balance
+    S g_cond{}, g_evap{};         // W/K, air side of one cell
+    S q_zone{};                   // W, heat the indoor unit puts into the zone (negative cooling)
   };
 
  private:
   [[nodiscard]] ModelLayout make_layout() const;
 
-  // Inputs of the pressure solve, converted to the solve's scalar type.
+  // The refrigerant-side state and conditions the pressure solve reads, in its scalar type.
   template <class T>
   struct SideInputs {
     T charge{}, m_cond{};
-    std::array<T, kMaxCells + 1> h_cond{}, h_evap{};  // J/kg; [N] the line cell
+    T h_dl{}, h_ll{}, h_sl{};                     // J/kg
+    std::array<T, kMaxCells> h_cond{}, h_evap{};  // J/kg
+    T t_air{};                                    // K, zone air (the evaporator's air inlet)
+    T g_cond{}, g_evap{};                         // W/K per cell, air side
   };
+  struct Conditions {
+    double speed = 0.0;  // Hz
+    double t_out = 0.0;  // K, the condenser's air inlet
+  };
+
+  template <class S>
+  SideInputs<S> side_inputs(std::span<const S> x, std::span<const double> u) const;
+  // Residuals of the pressure solve, mass of the cells minus the side's mass [kg], at the given
+  // pressures. With `e`, the full evaluation (coil cells with their mass partials) is stored.
   template <class T>
-  int fill_sides(const T& p_cond, const T& p_evap, const SideInputs<T>& in, double speed,
-                 Eval<T>& e, T& r_cond, T& r_evap) const;
-  // Solves the pressures in double precision (warm-started, cached by state and speed).
-  int solve_pressures(const SideInputs<double>& in, double speed, double& p_cond, double& p_evap,
-                      std::array<double, 4>& jac) const;
+  int side_masses(const T& p_cond, const T& p_evap, const SideInputs<T>& in, const Conditions& c,
+                  T& r_cond, T& r_evap, Eval<T>* e) const;
+  // One coil cell at pressure p: its mass [kg]; with `out`, also its mass partials and profile
+  // means (the profile evaluated with Tangent<4, T> in p, h_in, h_out, t_air).
+  template <class T>
+  T coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
+              const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const;
+  // Solves the pressures in double precision (warm-started, cached by the inputs).
+  int solve_pressures(const SideInputs<double>& in, const Conditions& c, double& p_cond,
+                      double& p_evap, std::array<double, 4>& jac) const;
   template <class S>
   int evaluate(std::span<const S> x, std::span<const double> u, Eval<S>& e) const;
   template <class S>
-  void promote(const Eval<double>& from, Eval<S>& to) const;
+  void march_condenser(Eval<S>& e, const std::span<const S> x) const;
   template <class S>
-  void chain_pressures(const Eval<Dual<2>>& at_p, const S& dpc, const S& dpe, Eval<S>& e) const;
-  template <class S>
-  void march(std::span<Cell<S>> cells, std::span<const S> q, double v_cell, double v_line,
-             const S& mdot_in, const S& h_in, const S& mdot_out, std::span<S> hdot, S& pdot) const;
+  void march_evaporator(Eval<S>& e, const std::span<const S> x) const;
 
   hp::Params p_;
   hp::Layout L_;
   std::size_t n_;
+  hp::ProfileOptions prof_cond_, prof_evap_;
   // Pressure-solve cache: the inputs it was solved for, and the solution.
   mutable std::vector<double> cache_key_;
   mutable double cache_pc_ = 0.0, cache_pe_ = 0.0;
   mutable std::array<double, 4> cache_jac_{};
   mutable bool cache_valid_ = false;
-  // The Newton solve's last evaluation, seeded in (p_cond, p_evap): the cells' pressure
-  // derivatives for chain_pressures().
-  std::unique_ptr<Eval<Dual<2>>> pressure_eval_ = std::make_unique<Eval<Dual<2>>>();
 };
 
 }  // namespace hvac_twin::plant

@@ -3,6 +3,7 @@
 
 #include <type_traits>
 
+#include "plant_models/core/tangent.hpp"
 #include "plant_models/heat_pump/heat_pump.hpp"
 #include "plant_models/refrigerant/r32_smooth.hpp"
 #include "plant_models/zone/zone_rc.hpp"
@@ -12,209 +13,330 @@ namespace hvac_twin::plant {
 inline constexpr double kKelvin = 273.15;
 inline constexpr double kGramPerHour = 1e-3 / 3600.0;  // kg/s
 
+template <class S>
+HeatPumpR32::SideInputs<S> HeatPumpR32::side_inputs(std::span<const S> x,
+                                                    std::span<const double> u) const {
+  using std::exp;
+  SideInputs<S> in;
+  in.charge = x[L_.charge];
+  in.m_cond = x[L_.m_cond];
+  in.h_dl = 1e3 * x[L_.h_dl];
+  in.h_ll = 1e3 * x[L_.h_ll];
+  in.h_sl = 1e3 * x[L_.h_sl];
+  for (std::size_t k = 0; k < n_; ++k) {
+    in.h_cond[k] = 1e3 * x[L_.h_cond[k]];
+    in.h_evap[k] = 1e3 * x[L_.h_evap[k]];
+  }
+  in.t_air = x[L_.t_air] + kKelvin;
+  const S fouling = L_.fouling != hp::kNone ? x[L_.fouling] : S(p_.fouling);
+  const hp::AirSide ac = hp::air_side(p_.cond, u[hp::kOutdoorFan], p_.fan_ua_exponent, n_);
+  const hp::AirSide ae = hp::air_side(p_.evap, u[hp::kIndoorFan], p_.fan_ua_exponent, n_);
+  in.g_cond = ac.capacity_rate * (1.0 - exp(-ac.ntu * fouling));
+  in.g_evap = S(ae.capacity_rate * (1.0 - std::exp(-ae.ntu)));
+  return in;
+}
+
 template <class T>
-int HeatPumpR32::fill_sides(const T& p_cond, const T& p_evap, const SideInputs<T>& in, double speed,
-                            Eval<T>& e, T& r_cond, T& r_evap) const {
+T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
+                         const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const {
+  const auto a = r32::ph_props(p, h_in);
+  const auto b = r32::ph_props(p, h_out);
+  const auto s = r32::sat_props(p);
+  if (a.status != r32::Status::kOk || b.status != r32::Status::kOk || s.status != r32::Status::kOk)
+    return T(std::nan(""));
+  if (out == nullptr) {
+    const hp::CellEnds<T> c{h_in, h_out, a.T,   b.T,           1.0 / a.rho,   1.0 / b.rho,
+                            s.T,  s.h_l, s.h_v, 1.0 / s.rho_l, 1.0 / s.rho_v, t_air};
+    return volume * hp::cell_means(c, g_air, o).rho;
+  }
+  // The same means in Tangent<4, T>: directions 0 the pressure level (the cell's friction
+  // offset held), 1 the inlet enthalpy, 2 the outlet enthalpy, 3 the air temperature.
+  using R = Tangent<4, T>;
+  const auto with = [](const T& v, int i, const T& slope, int j = -1, const T& slope_j = T(0.0)) {
+    R r(v);
+    r.d[static_cast<std::size_t>(i)] = slope;
+    if (j >= 0) r.d[static_cast<std::size_t>(j)] = slope_j;
+    return r;
+  };
+  const auto volume_of = [&](const T& rho, const T& rho_p, int j, const T& rho_h) {
+    const T v = 1.0 / rho;
+    return with(v, 0, T(-rho_p * v * v), j, T(-rho_h * v * v));
+  };
+  hp::CellEnds<R> c;
+  c.h_in = R::seed(h_in, 1);
+  c.h_out = R::seed(h_out, 2);
+  c.T_air = R::seed(t_air, 3);
+  c.T_in = with(a.T, 0, a.dT_dp_h, 1, a.dT_dh_p);
+  c.T_out = with(b.T, 0, b.dT_dp_h, 2, b.dT_dh_p);
+  c.v_in = volume_of(a.rho, a.drho_dp_h, 1, a.drho_dh_p);
+  c.v_out = volume_of(b.rho, b.drho_dp_h, 2, b.drho_dh_p);
+  c.T_sat = with(s.T, 0, s.dT_dp);
+  c.h_l = with(s.h_l, 0, s.dh_l_dp);
+  c.h_v = with(s.h_v, 0, s.dh_v_dp);
+  c.v_l = volume_of(s.rho_l, s.drho_l_dp, -1, T(0.0));
+  c.v_v = volume_of(s.rho_v, s.drho_v_dp, -1, T(0.0));
+  const hp::CellMeans<R> m = hp::cell_means(c, g_air, o);
+  CoilCell<T>& cell = *out;
+  cell.p = p;
+  cell.T_in = a.T;
+  cell.T_out = b.T;
+  cell.h_l = s.h_l;
+  cell.h_v = s.h_v;
+  cell.mass = volume * m.rho.v;
+  cell.mass_p = volume * m.rho.d[0];
+  cell.mass_in = volume * m.rho.d[1];
+  cell.mass_out = volume * m.rho.d[2];
+  cell.mass_air = volume * m.rho.d[3];
+  cell.alpha = m.alpha.v;
+  cell.alpha_T = m.alpha_T.v;
+  // Energy capacities C_x = dH/dx - h_out dm/dx of the content H = (1 - b) m h_out + b V rho_h
+  // (b = kProfileStorage): C_x = b V (d rho_h/dx - h_out d rho/dx) + (1 - b) m [x = h_out].
+  const double share = hp::kProfileStorage;
+  cell.cap_p = share * volume * (m.rho_h.d[0] - h_out * m.rho.d[0]);
+  cell.cap_in = share * volume * (m.rho_h.d[1] - h_out * m.rho.d[1]);
+  cell.cap_out = share * volume * (m.rho_h.d[2] - h_out * m.rho.d[2]) + (1.0 - share) * cell.mass;
+  cell.cap_air = share * volume * (m.rho_h.d[3] - h_out * m.rho.d[3]);
+  return cell.mass;
+}
+
+template <class T>
+int HeatPumpR32::side_masses(const T& p_cond, const T& p_evap, const SideInputs<T>& in,
+                             const Conditions& c, T& r_cond, T& r_evap, Eval<T>* e) const {
+  using std::isfinite;
+  using std::pow;
   const std::size_t N = n_;
-  const auto cell = [this](const T& p, const T& h, Cell<T>& c) {
+  const auto line = [this](const T& p, const T& h, LineCell<T>& cell) {
     const auto s = r32::smooth_ph(p, h, p_.smoothing_width);
-    c = Cell<T>{h, p, s.rho, s.drho_dp, s.drho_dh, s.T, s.quality};
+    cell = LineCell<T>{h, p, s.rho, s.drho_dp, s.drho_dh, s.T};
     return s.status == r32::Status::kOk;
   };
-  bool ok = cell(p_evap, in.h_evap[N], e.evap[N]);  // suction line: the compressor inlet
-  e.comp = hp::compressor(p_, p_evap, e.evap[N].rho, in.h_evap[N], p_cond, speed);
-  const T flow = e.comp.mdot / p_.nominal_mass_flow;
-  e.dp_cond = p_.cond.dp_nominal * flow * flow;
-  e.dp_evap = p_.evap.dp_nominal * flow * flow;
-  e.p_cond = p_cond;
-  e.p_evap = p_evap;
+  LineCell<T> dl, ll, sl;
+  bool ok = line(p_evap, in.h_sl, sl);  // the compressor inlet
+  const hp::CompressorFlow<T> comp = hp::compressor(p_, p_evap, sl.rho, in.h_sl, p_cond, c.speed);
+  const T drop = pow(T(comp.mdot / p_.nominal_mass_flow), p_.dp_exponent);
+  const T dp_cond = p_.cond.dp_nominal * drop;
+  const T dp_evap = p_.evap.dp_nominal * drop;
+
+  // The friction profile along each coil: the share of its drop upstream of each cell's middle.
+  std::array<T, kMaxCells> w_cond{}, w_evap{};
   const double inv_n = 1.0 / static_cast<double>(N);
-  for (std::size_t k = 0; k < N; ++k) {
-    const double along = (static_cast<double>(k) + 0.5) * inv_n;
-    ok = cell(p_cond - e.dp_cond * along, in.h_cond[k], e.cond[k]) && ok;
-    ok = cell(p_evap + e.dp_evap * (1.0 - along), in.h_evap[k], e.evap[k]) && ok;
+  if (p_.dp_distribution == 0) {
+    for (std::size_t k = 0; k < N; ++k)
+      w_cond[k] = w_evap[k] = T((static_cast<double>(k) + 0.5) * inv_n);
+  } else {
+    // In proportion to each cell's specific volume (friction ~ G^2 v), at the coil's pressure.
+    const auto shares = [&](const T& p_ref, const std::array<T, kMaxCells>& h,
+                            std::array<T, kMaxCells>& w) {
+      T total(0.0);
+      for (std::size_t k = 0; k < N; ++k) {
+        const auto s = r32::ph_props(p_ref, h[k]);
+        ok = ok && s.status == r32::Status::kOk;
+        w[k] = 1.0 / s.rho;
+        total += w[k];
+      }
+      T before(0.0);
+      for (std::size_t k = 0; k < N; ++k) {
+        const T own = w[k];
+        w[k] = (before + 0.5 * own) / total;
+        before += own;
+      }
+    };
+    shares(p_cond, in.h_cond, w_cond);
+    shares(p_evap, in.h_evap, w_evap);
   }
-  ok = cell(p_cond - e.dp_cond, in.h_cond[N], e.cond[N]) && ok;  // liquid line
+
+  ok = line(p_cond, in.h_dl, dl) && ok;
+  ok = line(p_cond - dp_cond, in.h_ll, ll) && ok;
   if (!ok) return kModelRecoverable;
-  T mass_cond = p_.liquid_line_volume * e.cond[N].rho;
-  T mass_evap = p_.suction_line_volume * e.evap[N].rho;
+  const double v_cond = p_.cond.volume * inv_n, v_evap = p_.evap.volume * inv_n;
+  const T t_out(c.t_out);
+  T mass_cond = p_.discharge_line_volume * dl.rho + p_.liquid_line_volume * ll.rho;
+  T mass_evap = p_.suction_line_volume * sl.rho;
   for (std::size_t k = 0; k < N; ++k) {
-    mass_cond += (p_.cond.volume * inv_n) * e.cond[k].rho;
-    mass_evap += (p_.evap.volume * inv_n) * e.evap[k].rho;
+    const T& h_in = k == 0 ? in.h_dl : in.h_cond[k - 1];
+    mass_cond += coil_cell(T(p_cond - dp_cond * w_cond[k]), h_in, in.h_cond[k], t_out, in.g_cond,
+                           prof_cond_, v_cond, e != nullptr ? &e->cond[k] : nullptr);
+    const T& h_in_e = k == 0 ? in.h_ll : in.h_evap[k - 1];
+    mass_evap += coil_cell(T(p_evap + dp_evap * (1.0 - w_evap[k])), h_in_e, in.h_evap[k], in.t_air,
+                           in.g_evap, prof_evap_, v_evap, e != nullptr ? &e->evap[k] : nullptr);
   }
+  if (!isfinite(value_of(mass_cond)) || !isfinite(value_of(mass_evap))) return kModelRecoverable;
   r_cond = mass_cond - in.m_cond;
   r_evap = mass_evap - (in.charge - in.m_cond);
+  if (e != nullptr) {
+    e->p_cond = p_cond;
+    e->p_evap = p_evap;
+    e->dp_cond = dp_cond;
+    e->dp_evap = dp_evap;
+    e->comp = comp;
+    e->dl = dl;
+    e->ll = ll;
+    e->sl = sl;
+  }
   return kModelOk;
-}
-
-template <class S>
-void HeatPumpR32::chain_pressures(const Eval<Dual<2>>& at_p, const S& dpc, const S& dpe,
-                                  Eval<S>& e) const {
-  const auto add = [&](const Dual<2>& by_p, S& f) { f += by_p.d[0] * dpc + by_p.d[1] * dpe; };
-  const auto cell = [&](const Cell<Dual<2>>& c2, Cell<S>& c) {
-    add(c2.p, c.p);
-    add(c2.rho, c.rho);
-    add(c2.rho_p, c.rho_p);
-    add(c2.rho_h, c.rho_h);
-    add(c2.T, c.T);
-    add(c2.quality, c.quality);
-  };
-  for (std::size_t k = 0; k <= n_; ++k) {
-    cell(at_p.cond[k], e.cond[k]);
-    cell(at_p.evap[k], e.evap[k]);
-  }
-  add(at_p.comp.mdot, e.comp.mdot);
-  add(at_p.comp.h_dis, e.comp.h_dis);
-  add(at_p.comp.w_ref, e.comp.w_ref);
-  add(at_p.comp.w_elec, e.comp.w_elec);
-  add(at_p.dp_cond, e.dp_cond);
-  add(at_p.dp_evap, e.dp_evap);
-  e.p_cond += dpc;
-  e.p_evap += dpe;
-}
-
-template <class S>
-void HeatPumpR32::promote(const Eval<double>& from, Eval<S>& to) const {
-  const auto cell = [](const Cell<double>& c) {
-    return Cell<S>{S(c.h), S(c.p), S(c.rho), S(c.rho_p), S(c.rho_h), S(c.T), S(c.quality)};
-  };
-  to.p_cond = S(from.p_cond);
-  to.p_evap = S(from.p_evap);
-  to.dp_cond = S(from.dp_cond);
-  to.dp_evap = S(from.dp_evap);
-  to.comp = {S(from.comp.mdot), S(from.comp.h_dis), S(from.comp.w_ref), S(from.comp.w_elec)};
-  for (std::size_t k = 0; k <= n_; ++k) {
-    to.cond[k] = cell(from.cond[k]);
-    to.evap[k] = cell(from.evap[k]);
-  }
-}
-
-template <class S>
-void HeatPumpR32::march(std::span<Cell<S>> cells, std::span<const S> q, double v_cell,
-                        double v_line, const S& mdot_in, const S& h_in, const S& mdot_out,
-                        std::span<S> hdot, S& pdot) const {
-  // Cell k with inflow a + b pdot at enthalpy h_up (upwind; forward flow):
-  //   V rho dh/dt = (a + b pdot)(h_up - h) + Q + V pdot          energy
-  //   V (rho_p pdot + rho_h dh/dt) = inflow - outflow              mass
-  // so dh/dt = e + f pdot and the outflow is again affine in pdot. The last outflow must equal
-  // mdot_out, which fixes pdot.
-  const std::size_t n = cells.size();
-  std::array<S, kMaxCells + 1> f{};
-  S a = mdot_in;
-  S b = S(0.0);
-  S h_up = h_in;
-  for (std::size_t k = 0; k < n; ++k) {
-    const Cell<S>& c = cells[k];
-    const bool line = k + 1 == n;
-    const double v = line ? v_line : v_cell;
-    const S heat = line ? S(0.0) : q[k];
-    const S vrho = v * c.rho;
-    hdot[k] = (a * (h_up - c.h) + heat) / vrho;
-    f[k] = (b * (h_up - c.h) + v) / vrho;
-    a = a - v * c.rho_h * hdot[k];
-    b = b - v * c.rho_p - v * c.rho_h * f[k];
-    h_up = c.h;
-  }
-  pdot = (mdot_out - a) / b;
-  for (std::size_t k = 0; k < n; ++k)
-    hdot[k] += f[k] * pdot;
 }
 
 template <class S>
 int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<S>& e) const {
   const std::size_t N = n_;
-  const double speed = u[hp::kCompressorSpeed];
-
-  SideInputs<double> dv;
-  dv.charge = value_of(x[L_.charge]);
-  dv.m_cond = value_of(x[L_.m_cond]);
-  for (std::size_t k = 0; k < N; ++k) {
-    dv.h_cond[k] = 1e3 * value_of(x[L_.h_cond[k]]);
-    dv.h_evap[k] = 1e3 * value_of(x[L_.h_evap[k]]);
-  }
-  dv.h_cond[N] = 1e3 * value_of(x[L_.h_ll]);
-  dv.h_evap[N] = 1e3 * value_of(x[L_.h_sl]);
+  const Conditions c{u[hp::kCompressorSpeed], u[hp::kOutdoorTemperature] + kKelvin};
+  const SideInputs<S> si = side_inputs(x, u);
   double pc = 0.0, pe = 0.0;
   std::array<double, 4> J{};
-  if (const int st = solve_pressures(dv, speed, pc, pe, J); st != kModelOk) return st;
-
-  S r_cond{}, r_evap{};
-  // With dual numbers seeded only in states the property solve does not read (walls, zone,
-  // unknowns), the refrigerant side has no tangents: evaluate it in double and promote.
-  bool plain = std::is_same_v<S, double>;
-  if constexpr (!std::is_same_v<S, double>) {
-    plain = true;
-    for (std::size_t i = 0; i < L_.refrigerant_states && plain; ++i)
-      for (const double d : x[i].d)
-        plain = plain && d == 0.0;
-  }
-  if (plain) {
-    if constexpr (std::is_same_v<S, double>) {
-      if (fill_sides(pc, pe, dv, speed, e, r_cond, r_evap) != kModelOk) return kModelRecoverable;
-    } else {
-      Eval<double> ed;
-      double rc = 0.0, re = 0.0;
-      if (fill_sides(pc, pe, dv, speed, ed, rc, re) != kModelOk) return kModelRecoverable;
-      promote(ed, e);
-    }
+  S rc{}, re{};
+  if constexpr (std::is_same_v<S, double>) {
+    if (const int st = solve_pressures(si, c, pc, pe, J); st != kModelOk) return st;
+    if (side_masses(pc, pe, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
   } else {
-    SideInputs<S> sv;
-    sv.charge = x[L_.charge];
-    sv.m_cond = x[L_.m_cond];
+    // Pressures in double; their tangents by the implicit-function theorem, dp = -J^-1 dR/dx
+    // at fixed pressures; then every property at the pressures with those tangents.
+    SideInputs<double> dv;
+    dv.charge = value_of(si.charge);
+    dv.m_cond = value_of(si.m_cond);
+    dv.h_dl = value_of(si.h_dl);
+    dv.h_ll = value_of(si.h_ll);
+    dv.h_sl = value_of(si.h_sl);
     for (std::size_t k = 0; k < N; ++k) {
-      sv.h_cond[k] = 1e3 * x[L_.h_cond[k]];
-      sv.h_evap[k] = 1e3 * x[L_.h_evap[k]];
+      dv.h_cond[k] = value_of(si.h_cond[k]);
+      dv.h_evap[k] = value_of(si.h_evap[k]);
     }
-    sv.h_cond[N] = 1e3 * x[L_.h_ll];
-    sv.h_evap[N] = 1e3 * x[L_.h_sl];
-    // One Newton step in the dual scalar at the converged pressures: its tangents are the
-    // implicit-function derivatives -J^-1 dR/dx of the pressures.
-    if (fill_sides(S(pc), S(pe), sv, speed, e, r_cond, r_evap) != kModelOk)
-      return kModelRecoverable;
-    const double det = J[0] * J[3] - J[1] * J[2];
-    const S dpc = -(J[3] * r_cond - J[1] * r_evap) / det;
-    const S dpe = -(J[0] * r_evap - J[2] * r_cond) / det;
-    // The properties were evaluated at the pressures held fixed; add their dependence on the
-    // pressures by the chain rule, dF += dF/dp_c dp_c + dF/dp_e dp_e, with dF/dp from the
-    // Newton solve's last evaluation (seeded in both pressures, friction included).
-    chain_pressures(*pressure_eval_, dpc, dpe, e);
+    dv.t_air = value_of(si.t_air);
+    dv.g_cond = value_of(si.g_cond);
+    dv.g_evap = value_of(si.g_evap);
+    if (const int st = solve_pressures(dv, c, pc, pe, J); st != kModelOk) return st;
+    bool seeded = false;
+    for (std::size_t i = 0; i < L_.refrigerant_states && !seeded; ++i)
+      for (const double d : x[i].d)
+        seeded = seeded || d != 0.0;
+    S p_c(pc), p_e(pe);
+    if (seeded) {
+      if (side_masses(S(pc), S(pe), si, c, rc, re, static_cast<Eval<S>*>(nullptr)) != kModelOk)
+        return kModelRecoverable;
+      const double det = J[0] * J[3] - J[1] * J[2];
+      const S dpc = -(J[3] * rc - J[1] * re) / det;
+      const S dpe = -(J[0] * re - J[2] * rc) / det;
+      p_c += dpc - S(value_of(dpc));  // tangents only: the values are the solved pressures
+      p_e += dpe - S(value_of(dpe));
+    }
+    if (side_masses(p_c, p_e, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
   }
 
   // Expansion valve between the liquid line and the evaporator inlet.
-  e.mdot_valve = hp::valve_flow(p_, u[hp::kValveOpening], e.cond[N].rho,
-                                S(e.cond[N].p - (e.p_evap + e.dp_evap)));
+  e.mdot_valve =
+      hp::valve_flow(p_, u[hp::kValveOpening], e.ll.rho, S(e.ll.p - (e.p_evap + e.dp_evap)));
   e.leak = L_.leak != hp::kNone ? x[L_.leak] * kGramPerHour : S(p_.leak_rate * kGramPerHour);
   e.q_int = L_.q_int != hp::kNone ? x[L_.q_int] : S(p_.internal_gains);
   e.fouling = L_.fouling != hp::kNone ? x[L_.fouling] : S(p_.fouling);
   e.t_air = x[L_.t_air];
   e.t_mass = x[L_.t_mass];
+  e.g_cond = si.g_cond;
+  e.g_evap = si.g_evap;
 
-  // Heat transfer: refrigerant <-> wall <-> air, per cell.
-  const hp::AirSide air_c = hp::air_side(p_.cond, u[hp::kOutdoorFan], p_.fan_ua_exponent, N);
-  const hp::AirSide air_e = hp::air_side(p_.evap, u[hp::kIndoorFan], p_.fan_ua_exponent, N);
-  const double area_c = p_.cond.inner_area / static_cast<double>(N);
-  const double area_e = p_.evap.inner_area / static_cast<double>(N);
-  const S t_out = S(u[hp::kOutdoorTemperature]);
+  // Heat: wall -> refrigerant from the profile means, air -> wall on the air side.
+  const double area_c = prof_cond_.area, area_e = prof_evap_.area;
+  const double t_out = u[hp::kOutdoorTemperature];
   e.q_zone = S(0.0);
   for (std::size_t k = 0; k < N; ++k) {
     const S& tw_c = x[L_.tw_cond[k]];
     const S& tw_e = x[L_.tw_evap[k]];
-    const S htc_c = hp::heat_transfer_coefficient(p_, p_.cond.htc_two_phase, e.cond[k].quality);
-    const S htc_e = hp::heat_transfer_coefficient(p_, p_.evap.htc_two_phase, e.evap[k].quality);
-    e.q_cond[k] = htc_c * area_c * (tw_c - (e.cond[k].T - kKelvin));
-    e.q_evap[k] = htc_e * area_e * (tw_e - (e.evap[k].T - kKelvin));
-    e.q_cond_air[k] = hp::air_to_wall(air_c, e.fouling, t_out, tw_c);
-    e.q_evap_air[k] = hp::air_to_wall(air_e, S(1.0), e.t_air, tw_e);
+    e.q_cond[k] = area_c * ((tw_c + kKelvin) * e.cond[k].alpha - e.cond[k].alpha_T);
+    e.q_evap[k] = area_e * ((tw_e + kKelvin) * e.evap[k].alpha - e.evap[k].alpha_T);
+    e.q_cond_air[k] = e.g_cond * (t_out - tw_c);
+    e.q_evap_air[k] = e.g_evap * (e.t_air - tw_e);
     e.q_zone -= e.q_evap_air[k];
   }
-
-  march(std::span<Cell<S>>(e.cond.data(), N + 1), std::span<const S>(e.q_cond.data(), N),
-        p_.cond.volume / static_cast<double>(N), p_.liquid_line_volume, e.comp.mdot, e.comp.h_dis,
-        e.mdot_valve, std::span<S>(e.hdot_cond.data(), N + 1), e.pdot_cond);
-  march(std::span<Cell<S>>(e.evap.data(), N + 1), std::span<const S>(e.q_evap.data(), N),
-        p_.evap.volume / static_cast<double>(N), p_.suction_line_volume, e.mdot_valve, e.cond[N].h,
-        S(e.comp.mdot + e.leak), std::span<S>(e.hdot_evap.data(), N + 1), e.pdot_evap);
+  ZoneRc::balance(p_.zone, e.t_air, e.t_mass, e.q_int, e.q_zone, t_out, e.t_air_dot, e.t_mass_dot);
+  march_condenser(e, x);
+  march_evaporator(e, x);
   return kModelOk;
+}
+
+// The cell balances of a side, marched in flow direction. Each cell's inflow is a + b pdot and
+// its inlet enthalpy moves at e_in + f_in pdot (the upstream cell's). A coil cell holds the mass
+// m(p, h_in, h, T_air) and the enthalpy H(p, h_in, h, T_air) of its profile; with the mass
+// balance, the energy balance dH/dt - V dp/dt = inflow h_in - outflow h + Q becomes
+//   C_h dh/dt = (a + b pdot)(h_in - h) + Q + (V - C_p) pdot - C_in dh_in/dt - C_air dT_air/dt
+// with the capacities C_x = dH/dx - h dm/dx, so dh/dt = e + f pdot; and the outflow, inflow -
+// dm/dt, is affine in pdot again. A line cell (uniform state) is the special case H = m h. The
+// last outflow equals the downstream flow, which fixes pdot.
+namespace hp_detail {
+
+template <class S>
+struct Affine {
+  S a{}, b{};  // value a + b pdot
+};
+
+// A line cell: returns dh/dt = e + f pdot and updates the flow to the outflow.
+template <class S>
+Affine<S> line_cell(Affine<S>& flow, const S& h_up, const S& h, const S& rho, const S& rho_p,
+                    const S& rho_h, double volume) {
+  const S vrho = volume * rho;
+  Affine<S> hdot{(flow.a * (h_up - h)) / vrho, (flow.b * (h_up - h) + volume) / vrho};
+  flow.a = flow.a - volume * rho_h * hdot.a;
+  flow.b = flow.b - volume * rho_p - volume * rho_h * hdot.b;
+  return hdot;
+}
+
+}  // namespace hp_detail
+
+template <class S>
+void HeatPumpR32::march_condenser(Eval<S>& e, const std::span<const S> x) const {
+  using hp_detail::Affine;
+  const std::size_t N = n_;
+  const double v_cell = p_.cond.volume / static_cast<double>(N);
+  Affine<S> flow{e.comp.mdot, S(0.0)};
+  std::array<Affine<S>, kMaxCells + 2> hdot{};
+  hdot[0] = hp_detail::line_cell(flow, e.comp.h_dis, e.dl.h, e.dl.rho, e.dl.rho_p, e.dl.rho_h,
+                                 p_.discharge_line_volume);
+  S h_in = e.dl.h;
+  for (std::size_t k = 0; k < N; ++k) {
+    const CoilCell<S>& c = e.cond[k];
+    const S h = 1e3 * x[L_.h_cond[k]];
+    const Affine<S>& in = hdot[k];
+    Affine<S>& out = hdot[k + 1];
+    // The outdoor air temperature is an input, constant over a step.
+    out.a = (flow.a * (h_in - h) + e.q_cond[k] - c.cap_in * in.a) / c.cap_out;
+    out.b = (flow.b * (h_in - h) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
+    flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a;
+    flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
+    h_in = h;
+  }
+  hdot[N + 1] = hp_detail::line_cell(flow, h_in, e.ll.h, e.ll.rho, e.ll.rho_p, e.ll.rho_h,
+                                     p_.liquid_line_volume);
+  e.pdot_cond = (e.mdot_valve - flow.a) / flow.b;
+  e.hdot_dl = hdot[0].a + hdot[0].b * e.pdot_cond;
+  for (std::size_t k = 0; k < N; ++k)
+    e.hdot_cond[k] = hdot[k + 1].a + hdot[k + 1].b * e.pdot_cond;
+  e.hdot_ll = hdot[N + 1].a + hdot[N + 1].b * e.pdot_cond;
+}
+
+template <class S>
+void HeatPumpR32::march_evaporator(Eval<S>& e, const std::span<const S> x) const {
+  using hp_detail::Affine;
+  const std::size_t N = n_;
+  const double v_cell = p_.evap.volume / static_cast<double>(N);
+  Affine<S> flow{e.mdot_valve, S(0.0)};
+  std::array<Affine<S>, kMaxCells + 2> hdot{};
+  hdot[0] = Affine<S>{e.hdot_ll, S(0.0)};  // the valve outlet: the liquid line's enthalpy
+  S h_in = e.ll.h;
+  for (std::size_t k = 0; k < N; ++k) {
+    const CoilCell<S>& c = e.evap[k];
+    const S h = 1e3 * x[L_.h_evap[k]];
+    const Affine<S>& in = hdot[k];
+    Affine<S>& out = hdot[k + 1];
+    out.a =
+        (flow.a * (h_in - h) + e.q_evap[k] - c.cap_in * in.a - c.cap_air * e.t_air_dot) / c.cap_out;
+    out.b = (flow.b * (h_in - h) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
+    flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a - c.mass_air * e.t_air_dot;
+    flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
+    h_in = h;
+  }
+  hdot[N + 1] = hp_detail::line_cell(flow, h_in, e.sl.h, e.sl.rho, e.sl.rho_p, e.sl.rho_h,
+                                     p_.suction_line_volume);
+  e.pdot_evap = (S(e.comp.mdot + e.leak) - flow.a) / flow.b;
+  for (std::size_t k = 0; k < N; ++k)
+    e.hdot_evap[k] = hdot[k + 1].a + hdot[k + 1].b * e.pdot_evap;
+  e.hdot_sl = hdot[N + 1].a + hdot[N + 1].b * e.pdot_evap;
 }
 
 template <class S>
@@ -232,10 +354,11 @@ int HeatPumpR32::rhs(std::span<const S> x, std::span<const double> u, std::span<
     xdot[L_.tw_cond[k]] = (e.q_cond_air[k] - e.q_cond[k]) / cw_c;
     xdot[L_.tw_evap[k]] = (e.q_evap_air[k] - e.q_evap[k]) / cw_e;
   }
-  xdot[L_.h_ll] = 1e-3 * e.hdot_cond[N];
-  xdot[L_.h_sl] = 1e-3 * e.hdot_evap[N];
-  ZoneRc::balance(p_.zone, e.t_air, e.t_mass, e.q_int, e.q_zone, u[hp::kOutdoorTemperature],
-                  xdot[L_.t_air], xdot[L_.t_mass]);
+  xdot[L_.h_dl] = 1e-3 * e.hdot_dl;
+  xdot[L_.h_ll] = 1e-3 * e.hdot_ll;
+  xdot[L_.h_sl] = 1e-3 * e.hdot_sl;
+  xdot[L_.t_air] = e.t_air_dot;
+  xdot[L_.t_mass] = e.t_mass_dot;
   if (L_.q_int != hp::kNone) xdot[L_.q_int] = S(0.0);
   if (L_.leak != hp::kNone) xdot[L_.leak] = S(0.0);
   if (L_.fouling != hp::kNone) xdot[L_.fouling] = S(0.0);
@@ -255,27 +378,47 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
     capacity += e.q_evap_air[k];
   }
   const auto sat_e = r32::sat_props(e.p_evap);
-  const auto sat_ll = r32::sat_props(e.cond[N].p);
+  const auto sat_ll = r32::sat_props(e.ll.p);
   const auto dis = r32::ph_props(e.p_cond, e.comp.h_dis);
   const AirSide air_e = air_side(p_.evap, u[kIndoorFan], p_.fan_ua_exponent, N);
+  // The wall temperature at a coil's end: the end cell's wall plus the difference between the
+  // local wall in steady balance with the refrigerant at that end (at the end's pressure) and
+  // the cell's mean wall in steady balance with its profile (exact at steady state; the wall's
+  // lag is carried by the state).
+  const auto wall_at_end = [&](const CoilCell<S>& c, const ProfileOptions& o, const S& g,
+                               const S& t_air_k, const S& p_end, const S& h_end, const S& tw) {
+    const S t_end = r32::ph_props(p_end, h_end).T;
+    const S a_end = local_alpha(o, h_end, c.h_l, c.h_v) * o.area;
+    const S local = (a_end * t_end + g * t_air_k) / (a_end + g);
+    const S mean = (o.area * c.alpha_T + g * t_air_k) / (o.area * c.alpha + g);
+    return tw + (local - mean);
+  };
+  const S t_out_k = S(u[kOutdoorTemperature] + kKelvin);
+  const S t_air_k = e.t_air + kKelvin;
+  const S h_last_c = 1e3 * x[L_.h_cond.last()];
+  const S h_last_e = 1e3 * x[L_.h_evap.last()];
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;
-  y[kCondWallTempIn] = x[L_.tw_cond[0]];
-  y[kCondWallTempOut] = x[L_.tw_cond.last()];
-  y[kEvapWallTempIn] = x[L_.tw_evap[0]];
-  y[kEvapWallTempOut] = x[L_.tw_evap.last()];
+  y[kCondWallTempIn] =
+      wall_at_end(e.cond[0], prof_cond_, e.g_cond, t_out_k, e.p_cond, e.dl.h, x[L_.tw_cond[0]]);
+  y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, t_out_k, e.ll.p, h_last_c,
+                                    x[L_.tw_cond.last()]);
+  y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, t_air_k,
+                                   S(e.p_evap + e.dp_evap), e.ll.h, x[L_.tw_evap[0]]);
+  y[kEvapWallTempOut] = wall_at_end(e.evap[N - 1], prof_evap_, e.g_evap, t_air_k, e.p_evap,
+                                    h_last_e, x[L_.tw_evap.last()]);
   y[kZoneAirTemperature] = e.t_air;
   y[kSupplyAirTemperature] = e.t_air - capacity / (air_e.capacity_rate * static_cast<double>(N));
   y[kCompressorPower] = e.comp.w_elec;
-  y[kCondenserOutletPressure] = e.cond[N].p;
-  y[kValveInletEnthalpy] = 1e-3 * e.cond[N].h;
+  y[kCondenserOutletPressure] = e.ll.p;
+  y[kValveInletEnthalpy] = 1e-3 * e.ll.h;
   y[kCondenserHeatFlow] = q_cond;
   y[kEvaporatorHeatFlow] = q_evap;
   y[kCoolingCapacity] = capacity;
   y[kRefrigerantMassFlow] = e.comp.mdot;
   y[kDischargeTemperature] = dis.T - kKelvin;
-  y[kSuperheat] = e.evap[N].T - sat_e.T;
-  y[kSubcooling] = sat_ll.T - e.cond[N].T;
+  y[kSuperheat] = e.sl.T - sat_e.T;
+  y[kSubcooling] = sat_ll.T - e.ll.T;
   y[kCop] = capacity / (e.comp.w_elec + 1.0);  // 1 W keeps it finite with the compressor off
   y[kCharge] = x[L_.charge];
   y[kLeakRate] = e.leak / kGramPerHour;

@@ -83,16 +83,6 @@ S valve_flow(const Params& P, double opening, const S& rho_in, const S& dp) {
   return P.valve_coefficient * a * signed_sqrt(S(2.0 * rho_in * dp), 2.0 * 1000.0 * 1e3);
 }
 
-// Refrigerant-side heat transfer coefficient: liquid, two-phase and vapour values blended by
-// logistic steps in vapour quality x at 0 and 1 (width quality_blend), so it is smooth in h.
-template <class S>
-S heat_transfer_coefficient(const Params& P, double two_phase, const S& x) {
-  const S to_two_phase = logistic(S(x / P.quality_blend));
-  const S to_vapour = logistic(S((x - 1.0) / P.quality_blend));
-  return P.htc_liquid + (two_phase - P.htc_liquid) * to_two_phase +
-         (P.htc_vapour - two_phase) * to_vapour;
-}
-
 // Air side of a coil: the air crosses each of the N cells once in parallel, each taking
 // air_flow/N with conductance UA/N, so every cell has the same effectiveness
 // eps = 1 - exp(-UA / (mdot_air cp)). Fan speeds are fractions of the rated air flow, floored at

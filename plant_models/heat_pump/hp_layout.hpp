@@ -5,17 +5,22 @@
 // State, in this order (units in brackets; enthalpies in kJ/kg keep the covariance well scaled):
 //   charge            [kg]     total refrigerant mass (changes only by a leak)
 //   M_cond            [kg]     mass in the high side: discharge line, condenser, liquid line
-//   h_cond_i          [kJ/kg]  condenser cell enthalpies, i = 0..N-1 in flow direction
+//   h_discharge_line  [kJ/kg]  discharge line (adiabatic cell): the condenser inlet
+//   h_cond_i          [kJ/kg]  condenser cell outlet enthalpies, i = 0..N-1 in flow direction
 //   h_liquid_line     [kJ/kg]  liquid line (adiabatic cell): the expansion-valve inlet
-//   h_evap_i          [kJ/kg]  evaporator cell enthalpies
+//   h_evap_i          [kJ/kg]  evaporator cell outlet enthalpies
 //   h_suction_line    [kJ/kg]  suction line (adiabatic cell): the compressor inlet
+//   T_air             [degC]   zone air (as zone_rc): the evaporator's air inlet
+//   fouling           [1]      outdoor-coil air-side UA factor (augmented, optional)
 //   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
 //   Tw_evap_i         [degC]   evaporator wall temperatures
-//   T_air, T_mass     [degC]   zone air and building mass (as zone_rc)
+//   T_mass            [degC]   building mass (as zone_rc)
 //   Q_int             [W]      internal gains            (augmented, optional)
 //   leak_rate         [g/h]    refrigerant leak           (augmented, optional)
-//   fouling           [1]      outdoor-coil air-side UA factor (augmented, optional)
 // The low-side mass is charge - M_cond; the two pressures are algebraic (see heat_pump.hpp).
+// The states up to fouling are everything the pressure solve reads: the cells' masses depend on
+// the enthalpies and, through the cell profiles' position weights, on the air temperatures and
+// the air-side conductances.
 #pragma once
 
 #include <cstddef>
@@ -35,8 +40,8 @@ struct Layout {
   std::size_t cells = 0;
   std::size_t charge = 0, m_cond = 1;
   Slice h_cond, tw_cond, h_evap, tw_evap;
-  std::size_t h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
-  std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the property solve
+  std::size_t h_dl = 0, h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
+  std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the pressure solve
   std::size_t q_int = kNone, leak = kNone, fouling = kNone;  // kNone: not augmented
   std::size_t size = 0;
 
@@ -47,20 +52,21 @@ struct Layout {
       at += count;
       return s;
     };
-    // The refrigerant states (masses and enthalpies) first: they are all the property solve
-    // depends on, so derivative chunks past them skip it (see HeatPumpR32::evaluate).
+    // What the pressure solve reads first (masses, enthalpies, air temperature, fouling), so
+    // derivative chunks past it skip the solve (see HeatPumpR32::evaluate).
+    h_dl = at++;
     h_cond = take(n);
     h_ll = at++;
     h_evap = take(n);
     h_sl = at++;
+    t_air = at++;
+    if (fouling_factor) fouling = at++;
     refrigerant_states = at;
     tw_cond = take(n);
     tw_evap = take(n);
-    t_air = at++;
     t_mass = at++;
     if (gains) q_int = at++;
     if (leak_rate) leak = at++;
-    if (fouling_factor) fouling = at++;
     size = at;
   }
 };

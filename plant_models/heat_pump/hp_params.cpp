@@ -47,8 +47,7 @@ const std::vector<Entry>& table() {
       {{"valve_coefficient", "m2", d.valve_coefficient, 1e-8, 1e-4, false,
         "expansion valve: discharge coefficient times full-open area"},
        HP_REF(valve_coefficient)},
-      {{"cond_volume", "m3", d.cond.volume, 1e-5, 0.05, false,
-        "condenser refrigerant volume, discharge line included"},
+      {{"cond_volume", "m3", d.cond.volume, 1e-5, 0.05, false, "condenser refrigerant volume"},
        HP_REF(cond.volume)},
       {{"cond_inner_area", "m2", d.cond.inner_area, 0.01, 50.0, false,
         "condenser refrigerant-side area"},
@@ -92,12 +91,16 @@ const std::vector<Entry>& table() {
       {{"htc_vapour", "W/(m2 K)", d.htc_vapour, 10.0, 1e5, false,
         "single-phase vapour heat transfer coefficient"},
        HP_REF(htc_vapour)},
-      {{"quality_blend", "1", d.quality_blend, 0.005, 0.3, false,
-        "width in vapour quality of the heat-transfer blend at x = 0 and x = 1"},
-       HP_REF(quality_blend)},
+      {{"htc_blend", "J/kg", d.htc_blend, 500.0, 1e5, false,
+        "enthalpy scale over which the single-phase heat transfer coefficient blends into the "
+        "two-phase value near a saturation line"},
+       HP_REF(htc_blend)},
       {{"nominal_mass_flow", "kg/s", d.nominal_mass_flow, 1e-3, 1.0, false,
         "refrigerant mass flow at which the nominal pressure drops apply"},
        HP_REF(nominal_mass_flow)},
+      {{"discharge_line_volume", "m3", d.discharge_line_volume, 1e-7, 0.01, false,
+        "discharge line volume, compressor to condenser inlet"},
+       HP_REF(discharge_line_volume)},
       {{"liquid_line_volume", "m3", d.liquid_line_volume, 1e-6, 0.01, false,
         "liquid line volume, condenser outlet to expansion valve"},
        HP_REF(liquid_line_volume)},
@@ -111,6 +114,9 @@ const std::vector<Entry>& table() {
         "enthalpy width of the density smoothing at the saturation lines (0: none, the raw "
         "table's kinks)"},
        HP_REF(smoothing_width)},
+      {{"dp_exponent", "1", d.dp_exponent, 1.0, 2.5, false,
+        "exponent of the mass flow in the refrigerant friction drops"},
+       HP_REF(dp_exponent)},
       {{"nameplate_charge", "kg", d.nameplate_charge, 0.05, 20.0, false,
         "factory refrigerant charge, line set included"},
        HP_REF(nameplate_charge)},
@@ -149,6 +155,29 @@ const std::vector<Flag>& flags() {
   return entries;
 }
 
+// Integer-coded closures (see hp_profile.hpp).
+struct Choice {
+  ParameterInfo info;
+  int& (*ref)(Params&);
+};
+
+const std::vector<Choice>& choices() {
+  const Params d{};
+  static const std::vector<Choice> entries{
+      {{"void_fraction", "1", static_cast<double>(d.void_fraction), 0.0, 2.0, true,
+        "two-phase void fraction: 0 homogeneous, 1 Zivi slip, 2 Smith slip (Gauss quadrature)"},
+       [](Params& p) -> int& { return p.void_fraction; }},
+      {{"two_phase_htc", "1", static_cast<double>(d.two_phase_htc), 0.0, 1.0, true,
+        "two-phase heat transfer: 0 constant per coil, 1 quality-dependent condensing and boiling "
+        "correlations (Gauss quadrature)"},
+       [](Params& p) -> int& { return p.two_phase_htc; }},
+      {{"dp_distribution", "1", static_cast<double>(d.dp_distribution), 0.0, 1.0, true,
+        "friction drop along a coil: 0 uniform, 1 in proportion to the cells' specific volume"},
+       [](Params& p) -> int& { return p.dp_distribution; }},
+  };
+  return entries;
+}
+
 constexpr const char* kZonePrefix = "zone_";
 
 }  // namespace
@@ -158,6 +187,8 @@ std::vector<ParameterInfo> parameter_info() {
   out.push_back({"cells", "1", 10.0, 2.0, 40.0, true, "finite-volume cells per heat exchanger"});
   for (const auto& f : flags())
     out.push_back(f.info);
+  for (const auto& c : choices())
+    out.push_back(c.info);
   for (const auto& e : table())
     out.push_back(e.info);
   for (ParameterInfo z : ZoneRc::parameter_info()) {
@@ -178,6 +209,8 @@ Params params_from_map(const ParameterMap& values) {
   p.cells = static_cast<int>(get("cells", p.cells));
   for (const auto& f : flags())
     f.set(p, get(f.info.name, f.info.default_value) != 0.0);
+  for (const auto& c : choices())
+    c.ref(p) = static_cast<int>(get(c.info.name, c.info.default_value));
   for (const auto& e : table())
     e.ref(p) = get(e.info.name, e.info.default_value);
   ParameterMap zone;

@@ -13,9 +13,9 @@
 
 namespace hvac_twin::test {
 
-// Rated speed, the valve opening that gives ~7 K superheat at 35/27 degC, rated fans.
+// Rated speed, the valve opening that gives ~6 K superheat at 35/27 degC, rated fans.
 inline std::vector<double> nominal_inputs(double t_out = 35.0) {
-  return {50.0, 0.355, 1.0, 1.0, t_out};
+  return {50.0, 0.374, 1.0, 1.0, t_out};
 }
 
 struct HeatPumpRig {

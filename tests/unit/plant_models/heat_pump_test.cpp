@@ -7,6 +7,7 @@
 
 #include "finite_difference.hpp"
 #include "heat_pump_fixture.hpp"
+#include "plant_models/heat_pump/hp_profile.hpp"
 #include "plant_models/refrigerant/r32_eos.hpp"
 #include "plant_models/refrigerant/r32_smooth.hpp"
 
@@ -89,27 +90,49 @@ TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasibl
 namespace {
 
 // The inventory recomputed from the outputs and the state, independently of the model's solve:
-// cell pressures from the inlet and outlet pressures (linear friction profile), densities from
-// the smoothed table, volumes from the parameters.
+// cell pressures from the inlet and outlet pressures (linear friction profile), each coil
+// cell's mean density over its profile from its ends (hp_profile.hpp, evaluated here from the
+// table), the line cells' smoothed densities, volumes from the parameters.
 double inventory(const HeatPumpRig& rig, const std::vector<double>& x,
                  const std::vector<double>& u) {
   const auto y = rig.outputs(x, u);
   const auto& P = rig.hp->params();
   const auto& L = rig.hp->slots();
-  const auto N = static_cast<double>(L.cells);
-  const auto rho = [&](double p, double h_kj) {
+  const std::size_t n = L.cells;
+  const auto N = static_cast<double>(n);
+  const auto line = [&](double p, double h_kj) {
     return r32::smooth_ph(p, 1e3 * h_kj, P.smoothing_width).rho;
   };
+  const auto cell = [&](bool condenser, double p, double h_in_kj, double h_out_kj, double t_air,
+                        double g_air) {
+    const auto in = r32::ph_props(p, 1e3 * h_in_kj), out = r32::ph_props(p, 1e3 * h_out_kj);
+    const auto sat = r32::sat_props(p);
+    const CellEnds<double> ends{1e3 * h_in_kj,   1e3 * h_out_kj, in.T,    out.T,   1.0 / in.rho,
+                                1.0 / out.rho,   sat.T,          sat.h_l, sat.h_v, 1.0 / sat.rho_l,
+                                1.0 / sat.rho_v, t_air + 273.15};
+    const auto o = plant::HeatPumpR32::profile_options(P, condenser, n);
+    return cell_means(ends, g_air, o).rho;
+  };
+  const AirSide ac = air_side(P.cond, u[kOutdoorFan], P.fan_ua_exponent, n);
+  const AirSide ae = air_side(P.evap, u[kIndoorFan], P.fan_ua_exponent, n);
+  const double fouling = L.fouling != kNone ? x[L.fouling] : P.fouling;
+  const double g_c = ac.capacity_rate * (1.0 - std::exp(-ac.ntu * fouling));
+  const double g_e = ae.capacity_rate * (1.0 - std::exp(-ae.ntu));
   const double pc = y[kDischargePressure], pc_out = y[kCondenserOutletPressure];
   const double pe = y[kSuctionPressure];
   // The evaporator drop is the condenser drop scaled by the nominal drops (same flow).
   const double dpe = (pc - pc_out) * P.evap.dp_nominal / P.cond.dp_nominal;
-  double m =
-      P.liquid_line_volume * rho(pc_out, x[L.h_ll]) + P.suction_line_volume * rho(pe, x[L.h_sl]);
-  for (std::size_t k = 0; k < L.cells; ++k) {
+  double m = P.discharge_line_volume * line(pc, x[L.h_dl]) +
+             P.liquid_line_volume * line(pc_out, x[L.h_ll]) +
+             P.suction_line_volume * line(pe, x[L.h_sl]);
+  for (std::size_t k = 0; k < n; ++k) {
     const double along = (static_cast<double>(k) + 0.5) / N;
-    m += P.cond.volume / N * rho(pc - (pc - pc_out) * along, x[L.h_cond[k]]);
-    m += P.evap.volume / N * rho(pe + dpe * (1.0 - along), x[L.h_evap[k]]);
+    m += P.cond.volume / N *
+         cell(true, pc - (pc - pc_out) * along, k == 0 ? x[L.h_dl] : x[L.h_cond[k - 1]],
+              x[L.h_cond[k]], u[kOutdoorTemperature], g_c);
+    m += P.evap.volume / N *
+         cell(false, pe + dpe * (1.0 - along), k == 0 ? x[L.h_ll] : x[L.h_evap[k - 1]],
+              x[L.h_evap[k]], x[L.t_air], g_e);
   }
   return m;
 }
@@ -258,13 +281,13 @@ TEST_CASE("step responses have the right signs and plausible time constants",
       CHECK(r.t95 < 300.0);
     }
   }
-  SECTION("expansion valve 0.355 -> 0.365") {
+  SECTION("expansion valve 0.374 -> 0.384") {
     auto u = u0;
-    u[kValveOpening] = 0.365;
+    u[kValveOpening] = 0.384;
     const auto sh = step_response(rig, x0, u, kSuperheat, 600.0);
     const auto ps = step_response(rig, x0, u, kSuctionPressure, 600.0);
     const auto sc = step_response(rig, x0, u, kSubcooling, 600.0);
-    WARN("valve step 0.355 -> 0.365: superheat "
+    WARN("valve step 0.374 -> 0.384: superheat "
          << sh.initial << " -> " << sh.final << " K (t63 " << sh.t63 << " s, t95 " << sh.t95
          << " s), suction " << ps.initial << " -> " << ps.final << " Pa, subcooling " << sc.initial
          << " -> " << sc.final << " K");
@@ -312,7 +335,7 @@ TEST_CASE("the heat pump's layout follows its structural parameters", "[heat_pum
   const HeatPumpRig small({{"cells", 4}, {"augment_fouling", 1}, {"augment_leak", 0}});
   const auto& L = small.model->layout();
   CHECK(small.hp->slots().cells == 4);
-  CHECK(L.states.size() == 2 + 4 * 4 + 2 + 2 + 2);  // masses, 4 x N, lines, zone, gains+fouling
+  CHECK(L.states.size() == 2 + 4 * 4 + 3 + 2 + 2);  // masses, 4 x N, lines, zone, gains+fouling
   CHECK(L.state("fouling").has_value());
   CHECK_FALSE(L.state("leak_rate").has_value());
   std::set<std::string> names;

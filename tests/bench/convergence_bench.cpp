@@ -1,0 +1,161 @@
+// How the heat-pump model's steady answers depend on its cell count (issue: the model converges).
+//
+//   convergence_bench [--short]
+//
+// At three operating points (part load in mild weather, nominal, full load in hot weather; the
+// zone held at its temperature, 0.5 kg of R32) the model is run to steady state at several cell
+// counts and compared with the continuous reference (tests/support/heat_pump_steady.hpp: the
+// coils' steady profiles integrated along the tube, no cells at all) and, as a cross-check,
+// with the Richardson extrapolation of the two finest cell counts. Printed per cell count:
+// subcooling, superheat, discharge and suction pressure, the four coil-end wall temperatures,
+// both heat flows, and the charge at which the model reproduces the reference's subcooling
+// (error in % of the 0.5 kg nameplate). The aims at the default cell count: subcooling,
+// superheat and wall temperatures within 0.3 K, charge within 1 % of the nameplate, heat flows
+// within 1 %; the program says whether each is met.
+// Then the benchmark truth (Smith void fraction, quality-dependent two-phase heat transfer,
+// friction ~ mdot^1.75 distributed by specific volume): its answers at 10-40 cells, to show the
+// cell count it runs at is converged too (Richardson of 30 and 40 cells as its reference).
+// --short: the nominal point only, fewer cell counts (CI).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "tests/simulator/truth_model.hpp"
+#include "tests/support/heat_pump_steady.hpp"
+
+using namespace hvac_twin;
+using test::OperatingPoint;
+using test::SteadyAnswer;
+
+namespace {
+
+constexpr int kDefaultCells = 10;
+constexpr double kNameplate = 0.5;
+
+void print_header() {
+  std::printf("  %-10s %6s %6s %8s %7s %6s %6s %6s %6s %7s %7s %8s\n", "cells", "subc K", "sh K",
+              "p_dis kPa", "p_suc", "Tw_ci", "Tw_co", "Tw_ei", "Tw_eo", "Q_c W", "Q_e W",
+              "charge %");
+}
+
+void print_row(const std::string& label, const SteadyAnswer& a, double charge_error_pct) {
+  std::printf("  %-10s %6.2f %6.2f %8.1f %7.1f %6.2f %6.2f %6.2f %6.2f %7.1f %7.1f", label.c_str(),
+              a.subcooling, a.superheat, a.p_discharge / 1e3, a.p_suction / 1e3, a.tw_cond_in,
+              a.tw_cond_out, a.tw_evap_in, a.tw_evap_out, a.q_cond, a.q_evap);
+  if (std::isfinite(charge_error_pct)) std::printf(" %+8.2f", charge_error_pct);
+  std::printf("\n");
+}
+
+// Largest errors against the reference: temperatures [K], heat flows [relative], pressures
+// [relative].
+struct Errors {
+  double temperature = 0, heat = 0, pressure = 0;
+};
+
+Errors errors(const SteadyAnswer& a, const SteadyAnswer& r) {
+  Errors e;
+  for (const auto& [x, y] : {std::pair{a.subcooling, r.subcooling},
+                             {a.superheat, r.superheat},
+                             {a.tw_cond_in, r.tw_cond_in},
+                             {a.tw_cond_out, r.tw_cond_out},
+                             {a.tw_evap_in, r.tw_evap_in},
+                             {a.tw_evap_out, r.tw_evap_out}})
+    e.temperature = std::max(e.temperature, std::abs(x - y));
+  e.heat = std::max(std::abs(a.q_cond / r.q_cond - 1.0), std::abs(a.q_evap / r.q_evap - 1.0));
+  e.pressure = std::max(std::abs(a.p_discharge / r.p_discharge - 1.0),
+                        std::abs(a.p_suction / r.p_suction - 1.0));
+  return e;
+}
+
+SteadyAnswer richardson(const SteadyAnswer& coarse, const SteadyAnswer& fine, double ratio) {
+  // Second order: f = f_fine + (f_fine - f_coarse) / (ratio^2 - 1).
+  const double k = 1.0 / (ratio * ratio - 1.0);
+  const auto r = [k](double c, double f) { return f + (f - c) * k; };
+  SteadyAnswer s;
+  s.subcooling = r(coarse.subcooling, fine.subcooling);
+  s.superheat = r(coarse.superheat, fine.superheat);
+  s.p_discharge = r(coarse.p_discharge, fine.p_discharge);
+  s.p_suction = r(coarse.p_suction, fine.p_suction);
+  s.tw_cond_in = r(coarse.tw_cond_in, fine.tw_cond_in);
+  s.tw_cond_out = r(coarse.tw_cond_out, fine.tw_cond_out);
+  s.tw_evap_in = r(coarse.tw_evap_in, fine.tw_evap_in);
+  s.tw_evap_out = r(coarse.tw_evap_out, fine.tw_evap_out);
+  s.q_cond = r(coarse.q_cond, fine.q_cond);
+  s.q_evap = r(coarse.q_evap, fine.q_evap);
+  return s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool short_form = argc > 1 && std::strcmp(argv[1], "--short") == 0;
+  const std::vector<int> cells =
+      short_form ? std::vector<int>{6, 10, 20} : std::vector<int>{4, 6, 8, 10, 16, 20, 40};
+  const plant::ParameterMap filter{};  // the daemon's default model
+  bool all_met = true;
+  std::printf("Convergence of heat_pump_r32 in its cell count (filter model, 0.5 kg R32)\n");
+  for (const OperatingPoint& op : test::kConvergencePoints) {
+    if (short_form && op.speed != 50.0) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    const SteadyAnswer ref = test::continuous_steady(filter, op, kNameplate);
+    std::printf("\n%s (valve %.3f)\n", op.name, op.valve);
+    print_header();
+    print_row("continuous", ref, NAN);
+    std::vector<SteadyAnswer> at;
+    for (const int n : cells) {
+      at.push_back(test::model_steady(filter, n, op, kNameplate));
+      const double m = test::model_charge_for_subcooling(filter, n, op, ref.subcooling);
+      print_row(std::to_string(n), at.back(), 100.0 * (m - kNameplate) / kNameplate);
+      if (n == kDefaultCells) {
+        const Errors e = errors(at.back(), ref);
+        const bool met =
+            e.temperature <= 0.3 && e.heat <= 0.01 && std::abs(m - kNameplate) <= 0.01 * kNameplate;
+        all_met = all_met && met;
+        std::printf(
+            "  %d cells: largest error %.3f K (aim 0.3), heat flows %.2f %% (aim 1), "
+            "pressures %.2f %%, charge %.2f %% of nameplate (aim 1): %s\n",
+            n, e.temperature, 100.0 * e.heat, 100.0 * e.pressure,
+            100.0 * std::abs(m - kNameplate) / kNameplate, met ? "met" : "MISSED");
+      }
+    }
+    const double ratio = static_cast<double>(cells.back()) / cells[cells.size() - 2];
+    const SteadyAnswer rich = richardson(at[at.size() - 2], at.back(), ratio);
+    print_row("Richardson", rich, NAN);
+    const Errors cross = errors(rich, ref);
+    std::printf("  Richardson vs continuous: %.3f K, heat %.3f %%, pressure %.3f %%  (%.1f s)\n",
+                cross.temperature, 100.0 * cross.heat, 100.0 * cross.pressure,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+
+  // The benchmark truth's own convergence at its cell count.
+  const plant::ParameterMap truth = sim::truth_closures();
+  const std::vector<int> truth_cells =
+      short_form ? std::vector<int>{20, 40} : std::vector<int>{10, 20, 30, 40};
+  std::printf(
+      "\nBenchmark truth closures (Smith slip, quality-dependent two-phase htc, friction "
+      "~ mdot^1.75 by specific volume), %s\n",
+      test::kConvergencePoints[1].name);
+  print_header();
+  std::vector<SteadyAnswer> tr;
+  for (const int n : truth_cells) {
+    tr.push_back(test::model_steady(truth, n, test::kConvergencePoints[1], kNameplate));
+    print_row(std::to_string(n), tr.back(), NAN);
+  }
+  const double ratio =
+      static_cast<double>(truth_cells.back()) / truth_cells[truth_cells.size() - 2];
+  const SteadyAnswer rich = richardson(tr[tr.size() - 2], tr.back(), ratio);
+  print_row("Richardson", rich, NAN);
+  const auto at_truth = std::find(truth_cells.begin(), truth_cells.end(), sim::kTruthCells);
+  if (at_truth != truth_cells.end()) {
+    const Errors e = errors(tr[static_cast<std::size_t>(at_truth - truth_cells.begin())], rich);
+    std::printf("  truth at %d cells vs Richardson: %.3f K, heat %.3f %%, pressure %.3f %%\n",
+                sim::kTruthCells, e.temperature, 100.0 * e.heat, 100.0 * e.pressure);
+  }
+  std::printf("\naims at %d cells: %s\n", kDefaultCells,
+              all_met ? "all met" : "MISSED (see above)");
+  return 0;
+}
