@@ -44,9 +44,20 @@ T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_a
   const auto s = r32::sat_props(p);
   if (a.status != r32::Status::kOk || b.status != r32::Status::kOk || s.status != r32::Status::kOk)
     return T(std::nan(""));
+  // A two-phase end near a line also needs the single-phase branch beyond it (hp_profile.hpp).
+  const auto branch = [&](const T& h, const r32::PhState<T>& own) {
+    const int which = hp::needs_branch(h, s.h_l, s.h_v, o.line_blend);
+    if (which < 0) return own;
+    return r32::ph_table().ph_in(p, h, which == 2 ? r32::Region::kVapour : r32::Region::kLiquid);
+  };
+  const r32::PhState<T> a_alt = branch(h_in, a), b_alt = branch(h_out, b);
   if (out == nullptr) {
-    const hp::CellEnds<T> c{h_in, h_out, a.T,   b.T,           1.0 / a.rho,   1.0 / b.rho,
-                            s.T,  s.h_l, s.h_v, 1.0 / s.rho_l, 1.0 / s.rho_v, t_air};
+    hp::CellEnds<T> c{h_in, h_out, a.T,   b.T,           1.0 / a.rho,   1.0 / b.rho,
+                      s.T,  s.h_l, s.h_v, 1.0 / s.rho_l, 1.0 / s.rho_v, t_air};
+    c.T_in_alt = a_alt.T;
+    c.v_in_alt = 1.0 / a_alt.rho;
+    c.T_out_alt = b_alt.T;
+    c.v_out_alt = 1.0 / b_alt.rho;
     return volume * hp::cell_means(c, g_air, o).rho;
   }
   // The same means in Tangent<4, T>: directions 0 the pressure level (the cell's friction
@@ -70,6 +81,10 @@ T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_a
   c.T_out = with(b.T, 0, b.dT_dp_h, 2, b.dT_dh_p);
   c.v_in = volume_of(a.rho, a.drho_dp_h, 1, a.drho_dh_p);
   c.v_out = volume_of(b.rho, b.drho_dp_h, 2, b.drho_dh_p);
+  c.T_in_alt = with(a_alt.T, 0, a_alt.dT_dp_h, 1, a_alt.dT_dh_p);
+  c.T_out_alt = with(b_alt.T, 0, b_alt.dT_dp_h, 2, b_alt.dT_dh_p);
+  c.v_in_alt = volume_of(a_alt.rho, a_alt.drho_dp_h, 1, a_alt.drho_dh_p);
+  c.v_out_alt = volume_of(b_alt.rho, b_alt.drho_dp_h, 2, b_alt.drho_dh_p);
   c.T_sat = with(s.T, 0, s.dT_dp);
   c.h_l = with(s.h_l, 0, s.dh_l_dp);
   c.h_v = with(s.h_v, 0, s.dh_v_dp);

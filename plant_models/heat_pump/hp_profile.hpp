@@ -61,6 +61,7 @@ struct ProfileOptions {
   double area = 0.07;               // m^2, the cell's refrigerant-side area
   double blend_h = 10e3;            // J/kg, width of the alpha blend at the lines
   double eps_dt = 0.3;              // K, regularises T - T_air where it vanishes or changes sign
+  double line_blend = 1000.0;       // J/kg, an end this close to a line counts on both sides
   double heat_sign = 1.0;           // +1: refrigerant warmer than the air (condenser), -1 colder
   VoidFraction void_fraction = VoidFraction::kZivi;
   TwoPhaseHtc htc = TwoPhaseHtc::kConstant;
@@ -75,7 +76,21 @@ struct CellEnds {
   R v_in{}, v_out{};                      // m^3/kg (single-phase values are the ones used)
   R T_sat{}, h_l{}, h_v{}, v_l{}, v_v{};  // saturation at the cell pressure
   R T_air{};                              // K, air entering the coil
+  // An end that is two-phase within line_blend of a line: T and v on the single-phase branch
+  // beyond that line, continued to the end's enthalpy (read only then; see needs_branch()).
+  R T_in_alt{}, v_in_alt{}, T_out_alt{}, v_out_alt{};
 };
+
+// Whether an end of enthalpy h needs its continued single-phase branch (CellEnds::*_alt), and
+// which: 0 the liquid branch, 2 the vapour branch, -1 none.
+template <class R>
+int needs_branch(const R& h, const R& h_l, const R& h_v, double line_blend) {
+  const double x = value_of(h), l = value_of(h_l), v = value_of(h_v);
+  if (x < l || x > v) return -1;
+  if (v - x < line_blend) return 2;
+  if (x - l < line_blend) return 0;
+  return -1;
+}
 
 template <class R>
 struct CellMeans {
@@ -164,6 +179,7 @@ R two_phase_alpha(const ProfileOptions& o, const R& x) {
     // value at x = 1 (smoothstep).
     const R rising = a * (0.7 + 0.6 * x);
     if (value_of(x) <= 0.8) return rising;
+    if (value_of(x) >= 1.0) return R(o.alpha_vapour);
     const R s = (x - 0.8) / 0.2;
     const R w = s * s * (3.0 - 2.0 * s);
     return rising * (1.0 - w) + o.alpha_vapour * w;
@@ -298,43 +314,86 @@ CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptio
     return p;
   };
 
-  // The pieces' ends: the outlet and inlet clamped into each region. Sum of spans = h_in - h_out.
-  const bool out_v = value_of(c.h_out) > value_of(c.h_v), in_v = value_of(c.h_in) > value_of(c.h_v);
-  const bool out_l = value_of(c.h_out) < value_of(c.h_l), in_l = value_of(c.h_in) < value_of(c.h_l);
-  const R& hv_out = out_v ? c.h_out : c.h_v;
-  const R& hv_in = in_v ? c.h_in : c.h_v;
-  const R& hl_out = out_l ? c.h_out : c.h_l;
-  const R& hl_in = in_l ? c.h_in : c.h_l;
-  const R& htp_out = out_v ? c.h_v : (out_l ? c.h_l : c.h_out);
-  const R& htp_in = in_v ? c.h_v : (in_l ? c.h_l : c.h_in);
+  // The profile with each end assigned a region (0 liquid, 1 two-phase, 2 vapour): one piece per
+  // region from the outlet's to the inlet's, each from the end assigned to it or the line it
+  // shares with the next region towards the other end. Spans are signed (h_in - h_out is the
+  // total); an end assigned a region it is not in (within line_blend of the line, see below)
+  // gives that region's piece a short negative span, on that region's branch continued.
+  struct Point {
+    R h, T, v;
+  };
+  const Point line_l{c.h_l, c.T_sat, c.v_l}, line_v{c.h_v, c.T_sat, c.v_v};
+  const auto region_of = [&](const R& h) {
+    return value_of(h) > value_of(c.h_v) ? 2 : (value_of(h) < value_of(c.h_l) ? 0 : 1);
+  };
+  const int own_in = region_of(c.h_in), own_out = region_of(c.h_out);
+  const auto end_point = [&](bool inlet, int region) {
+    const R& h = inlet ? c.h_in : c.h_out;
+    const bool own = region == (inlet ? own_in : own_out);
+    if (own) return Point{h, inlet ? c.T_in : c.T_out, inlet ? c.v_in : c.v_out};
+    return Point{h, inlet ? c.T_in_alt : c.T_out_alt, inlet ? c.v_in_alt : c.v_out_alt};
+  };
   const R span = c.h_in - c.h_out;
   const bool degenerate = value_of(span) == 0.0;
-  std::array<R, 3> share{};  // of the span: vapour, two-phase, liquid
-  if (degenerate) {
-    share[out_v ? 0 : (out_l ? 2 : 1)] = R(1.0);
-  } else {
-    share[0] = (hv_in - hv_out) / span;
-    share[1] = (htp_in - htp_out) / span;
-    share[2] = (hl_in - hl_out) / span;
-  }
-  PieceIntegrals<R> sum;
-  const auto add = [&sum](const R& f, const PieceIntegrals<R>& p) {
-    sum.g += f * p.g;
-    sum.rho += f * p.rho;
-    sum.rho_h += f * p.rho_h;
-    sum.alpha += f * p.alpha;
-    sum.alpha_T += f * p.alpha_T;
+  const auto assigned = [&](int r_in, int r_out) {
+    PieceIntegrals<R> sum;
+    const int step = r_in >= r_out ? 1 : -1;  // from the outlet's region to the inlet's
+    for (int r = r_out;; r += step) {
+      // The piece's outlet-side end A and inlet-side end B.
+      const bool a_end = r == r_out, b_end = r == r_in;
+      const auto line_toward = [&](int other) {  // the line between r and the next towards other
+        return (other < r) ? (r == 2 ? line_v : line_l) : (r == 0 ? line_l : line_v);
+      };
+      const Point A = a_end ? end_point(false, r) : line_toward(r_out);
+      const Point B = b_end ? end_point(true, r) : line_toward(r_in);
+      const R f = degenerate ? R(r == r_out ? 1.0 : 0.0) : R((B.h - A.h) / span);
+      if (value_of(f) != 0.0) {
+        const PieceIntegrals<R> p =
+            r == 1   ? two_phase(A.h, B.h)
+            : r == 2 ? single(A.h, A.T, A.v, B.h, B.T, B.v, o.alpha_vapour, c.h_v, 1.0)
+                     : single(A.h, A.T, A.v, B.h, B.T, B.v, o.alpha_liquid, c.h_l, -1.0);
+        sum.g += f * p.g;
+        sum.rho += f * p.rho;
+        sum.rho_h += f * p.rho_h;
+        sum.alpha += f * p.alpha;
+        sum.alpha_T += f * p.alpha_T;
+      }
+      if (r == r_in) break;
+    }
+    return CellMeans<R>{sum.rho / sum.g, sum.rho_h / sum.g, sum.alpha / sum.g, sum.alpha_T / sum.g};
   };
-  if (value_of(share[0]) != 0.0)
-    add(share[0],
-        single(hv_out, out_v ? c.T_out : c.T_sat, out_v ? c.v_out : c.v_v, hv_in,
-               in_v ? c.T_in : c.T_sat, in_v ? c.v_in : c.v_v, o.alpha_vapour, c.h_v, 1.0));
-  if (value_of(share[1]) != 0.0) add(share[1], two_phase(htp_out, htp_in));
-  if (value_of(share[2]) != 0.0)
-    add(share[2],
-        single(hl_out, out_l ? c.T_out : c.T_sat, out_l ? c.v_out : c.v_l, hl_in,
-               in_l ? c.T_in : c.T_sat, in_l ? c.v_in : c.v_l, o.alpha_liquid, c.h_l, -1.0));
-  return {sum.rho / sum.g, sum.rho_h / sum.g, sum.alpha / sum.g, sum.alpha_T / sum.g};
+  // Within line_blend of a saturation line an end counts as on either side of it, the two
+  // profiles blended by a quintic smoothstep (C2), so that the means stay C2 as an end crosses
+  // the line: the piece beyond the line is anchored at the line on one side and at the end on
+  // the other, and the slopes of the two constructions differ there.
+  struct Choice {
+    int region[2];
+    R weight[2];
+    int count;
+  };
+  const auto choices = [&](const R& h, int own) {
+    const auto blend = [&](const R& line, int below) {
+      const R z = (h - line) / o.line_blend;  // in (-1, 1)
+      const R t = 0.5 * (z + 1.0);
+      const R s = t * t * t * (10.0 + t * (-15.0 + 6.0 * t));
+      return Choice{{below, below + 1}, {1.0 - s, s}, 2};
+    };
+    if (std::abs(value_of(h) - value_of(c.h_v)) < o.line_blend) return blend(c.h_v, 1);
+    if (std::abs(value_of(h) - value_of(c.h_l)) < o.line_blend) return blend(c.h_l, 0);
+    return Choice{{own, own}, {R(1.0), R(0.0)}, 1};
+  };
+  const Choice in = choices(c.h_in, own_in), out = choices(c.h_out, own_out);
+  CellMeans<R> m{};
+  for (int i = 0; i < in.count; ++i)
+    for (int j = 0; j < out.count; ++j) {
+      const R w = in.weight[i] * out.weight[j];
+      const CellMeans<R> a = assigned(in.region[i], out.region[j]);
+      m.rho += w * a.rho;
+      m.rho_h += w * a.rho_h;
+      m.alpha += w * a.alpha;
+      m.alpha_T += w * a.alpha_T;
+    }
+  return m;
 }
 
 }  // namespace hvac_twin::plant::hp

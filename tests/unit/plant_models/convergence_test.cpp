@@ -1,0 +1,54 @@
+// The heat-pump model converges in its cell count: at the cell count the daemon runs by default
+// its steady answers are within the aims of the continuous (cell-free) reference at part load,
+// nominal and full load (tests/support/heat_pump_steady.hpp; the full table is
+// convergence_bench's). Fails if the default model drifts beyond the aims.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "plant_models/catalog.hpp"
+#include "tests/support/heat_pump_steady.hpp"
+
+using namespace hvac_twin;
+
+TEST_CASE("at its default cell count the heat pump is within the aims of its converged answer",
+          "[heat_pump][convergence]") {
+  const plant::ParameterMap defaults{};
+  const plant::ModelSchema* schema = plant::find_schema("heat_pump_r32");
+  REQUIRE(schema != nullptr);
+  const int cells = static_cast<int>(plant::with_defaults(*schema, defaults).at("cells"));
+  const double nameplate = 0.5;
+  for (const test::OperatingPoint& op : test::kConvergencePoints) {
+    INFO(op.name << ", " << cells << " cells");
+    const test::SteadyAnswer ref = test::continuous_steady(defaults, op, nameplate);
+    const test::SteadyAnswer a = test::model_steady(defaults, cells, op, nameplate);
+    CHECK(a.subcooling == Approx(ref.subcooling).margin(0.3));
+    CHECK(a.superheat == Approx(ref.superheat).margin(0.3));
+    CHECK(a.tw_cond_in == Approx(ref.tw_cond_in).margin(0.3));
+    CHECK(a.tw_cond_out == Approx(ref.tw_cond_out).margin(0.3));
+    CHECK(a.tw_evap_in == Approx(ref.tw_evap_in).margin(0.3));
+    CHECK(a.tw_evap_out == Approx(ref.tw_evap_out).margin(0.3));
+    CHECK(a.q_cond == Approx(ref.q_cond).epsilon(0.01));
+    CHECK(a.q_evap == Approx(ref.q_evap).epsilon(0.01));
+    CHECK(a.p_discharge == Approx(ref.p_discharge).epsilon(0.005));
+    CHECK(a.p_suction == Approx(ref.p_suction).epsilon(0.005));
+    // The charge at which the model shows the reference's subcooling: within 1 % of nameplate.
+    const double charge = test::model_charge_for_subcooling(defaults, cells, op, ref.subcooling);
+    CHECK(charge == Approx(nameplate).margin(0.01 * nameplate));
+  }
+}
+
+TEST_CASE("the first-order answer the profiles replace is far from the converged one",
+          "[heat_pump][convergence]") {
+  // The reference itself is what the test above measures against: it must not be a copy of the
+  // model. At 4 cells the model is visibly off (a superheat error of ~1 K at the nominal point),
+  // and the reference agrees with the model at 40 cells to a few hundredths of a kelvin.
+  const plant::ParameterMap defaults{};
+  const test::OperatingPoint& op = test::kConvergencePoints[1];
+  const test::SteadyAnswer ref = test::continuous_steady(defaults, op, 0.5);
+  const test::SteadyAnswer coarse = test::model_steady(defaults, 4, op, 0.5);
+  const test::SteadyAnswer fine = test::model_steady(defaults, 40, op, 0.5);
+  CHECK(std::abs(coarse.superheat - ref.superheat) > 0.5);
+  CHECK(fine.superheat == Approx(ref.superheat).margin(0.05));
+  CHECK(fine.subcooling == Approx(ref.subcooling).margin(0.02));
+  CHECK(fine.q_cond == Approx(ref.q_cond).epsilon(2e-4));
+}
