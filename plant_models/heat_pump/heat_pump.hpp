@@ -130,6 +130,11 @@ class HeatPumpR32 {
 
   template <class S>
   SideInputs<S> side_inputs(std::span<const S> x, std::span<const double> u) const;
+  // The same inputs (or what side_masses() stored) with every scalar mapped by f.
+  template <class A, class B, class F>
+  void map_inputs(const SideInputs<A>& from, SideInputs<B>& to, F&& f) const;
+  template <class A, class B, class F>
+  void map_side(const Eval<A>& from, Eval<B>& to, F&& f) const;
   // Residuals of the pressure solve, mass of the cells minus the side's mass [kg], at the given
   // pressures. With `e`, the full evaluation (coil cells with their mass partials) is stored.
   template <class T>

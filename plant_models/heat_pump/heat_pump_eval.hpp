@@ -36,6 +36,47 @@ HeatPumpR32::SideInputs<S> HeatPumpR32::side_inputs(std::span<const S> x,
   return in;
 }
 
+template <class A, class B, class F>
+void HeatPumpR32::map_inputs(const SideInputs<A>& from, SideInputs<B>& to, F&& f) const {
+  to.charge = f(from.charge);
+  to.m_cond = f(from.m_cond);
+  to.h_dl = f(from.h_dl);
+  to.h_ll = f(from.h_ll);
+  to.h_sl = f(from.h_sl);
+  for (std::size_t k = 0; k < n_; ++k) {
+    to.h_cond[k] = f(from.h_cond[k]);
+    to.h_evap[k] = f(from.h_evap[k]);
+  }
+  to.t_air = f(from.t_air);
+  to.g_cond = f(from.g_cond);
+  to.g_evap = f(from.g_evap);
+}
+
+template <class A, class B, class F>
+void HeatPumpR32::map_side(const Eval<A>& from, Eval<B>& to, F&& f) const {
+  to.p_cond = f(from.p_cond);
+  to.p_evap = f(from.p_evap);
+  to.dp_cond = f(from.dp_cond);
+  to.dp_evap = f(from.dp_evap);
+  to.comp = {f(from.comp.mdot), f(from.comp.h_dis), f(from.comp.w_ref), f(from.comp.w_elec)};
+  const auto line = [&f](const LineCell<A>& a) {
+    return LineCell<B>{f(a.h), f(a.p), f(a.rho), f(a.rho_p), f(a.rho_h), f(a.T)};
+  };
+  to.dl = line(from.dl);
+  to.ll = line(from.ll);
+  to.sl = line(from.sl);
+  const auto coil = [&f](const CoilCell<A>& a) {
+    return CoilCell<B>{f(a.p),        f(a.T_in),     f(a.T_out),  f(a.h_l),
+                       f(a.h_v),      f(a.mass),     f(a.mass_p), f(a.mass_in),
+                       f(a.mass_out), f(a.mass_air), f(a.cap_p),  f(a.cap_in),
+                       f(a.cap_out),  f(a.cap_air),  f(a.alpha),  f(a.alpha_T)};
+  };
+  for (std::size_t k = 0; k < n_; ++k) {
+    to.cond[k] = coil(from.cond[k]);
+    to.evap[k] = coil(from.evap[k]);
+  }
+}
+
 template <class T>
 T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
                          const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const {
@@ -198,42 +239,55 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
   const SideInputs<S> si = side_inputs(x, u);
   double pc = 0.0, pe = 0.0;
   std::array<double, 4> J{};
-  S rc{}, re{};
   if constexpr (std::is_same_v<S, double>) {
+    double rc = 0.0, re = 0.0;
     if (const int st = solve_pressures(si, c, pc, pe, J); st != kModelOk) return st;
     if (side_masses(pc, pe, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
   } else {
-    // Pressures in double; their tangents by the implicit-function theorem, dp = -J^-1 dR/dx
-    // at fixed pressures; then every property at the pressures with those tangents.
+    // Pressures in double (Newton, cached across the chunks of one Jacobian); their tangents by
+    // the implicit-function theorem, dp/dx = -J^-1 dR/dx at fixed pressures. Every property is
+    // evaluated once, in a scalar W with two more directions seeded in the pressures, and each
+    // result's state tangents completed by the chain rule: dq/dx = q_x + q_p dp/dx.
+    constexpr int K = S::kDirections;
     SideInputs<double> dv;
-    dv.charge = value_of(si.charge);
-    dv.m_cond = value_of(si.m_cond);
-    dv.h_dl = value_of(si.h_dl);
-    dv.h_ll = value_of(si.h_ll);
-    dv.h_sl = value_of(si.h_sl);
-    for (std::size_t k = 0; k < N; ++k) {
-      dv.h_cond[k] = value_of(si.h_cond[k]);
-      dv.h_evap[k] = value_of(si.h_evap[k]);
-    }
-    dv.t_air = value_of(si.t_air);
-    dv.g_cond = value_of(si.g_cond);
-    dv.g_evap = value_of(si.g_evap);
+    map_inputs(si, dv, [](const S& v) { return value_of(v); });
     if (const int st = solve_pressures(dv, c, pc, pe, J); st != kModelOk) return st;
     bool seeded = false;
     for (std::size_t i = 0; i < L_.refrigerant_states && !seeded; ++i)
       for (const double d : x[i].d)
         seeded = seeded || d != 0.0;
-    S p_c(pc), p_e(pe);
-    if (seeded) {
-      if (side_masses(S(pc), S(pe), si, c, rc, re, static_cast<Eval<S>*>(nullptr)) != kModelOk)
-        return kModelRecoverable;
+    if (!seeded) {  // the chunk seeds only walls, zone mass or unknowns: no refrigerant tangents
+      Eval<double> ed;
+      double rcd = 0.0, red = 0.0;
+      if (side_masses(pc, pe, dv, c, rcd, red, &ed) != kModelOk) return kModelRecoverable;
+      map_side(ed, e, [](double v) { return S(v); });
+    } else {
+      using W = Dual<K + 2>;
+      SideInputs<W> wi;
+      map_inputs(si, wi, [](const S& v) {
+        W w(v.v);
+        for (int j = 0; j < K; ++j)
+          w.d[static_cast<std::size_t>(j)] = v.d[static_cast<std::size_t>(j)];
+        return w;
+      });
+      W pcw(pc), pew(pe), rcw{}, rew{};
+      pcw.d[K] = 1.0;
+      pew.d[K + 1] = 1.0;
+      Eval<W> ew;
+      if (side_masses(pcw, pew, wi, c, rcw, rew, &ew) != kModelOk) return kModelRecoverable;
       const double det = J[0] * J[3] - J[1] * J[2];
-      const S dpc = -(J[3] * rc - J[1] * re) / det;
-      const S dpe = -(J[0] * re - J[2] * rc) / det;
-      p_c += dpc - S(value_of(dpc));  // tangents only: the values are the solved pressures
-      p_e += dpe - S(value_of(dpe));
+      std::array<double, K> dpc{}, dpe{};
+      for (std::size_t j = 0; j < static_cast<std::size_t>(K); ++j) {
+        dpc[j] = -(J[3] * rcw.d[j] - J[1] * rew.d[j]) / det;
+        dpe[j] = -(J[0] * rew.d[j] - J[2] * rcw.d[j]) / det;
+      }
+      map_side(ew, e, [&](const W& w) {
+        S v(w.v);
+        for (std::size_t j = 0; j < static_cast<std::size_t>(K); ++j)
+          v.d[j] = w.d[j] + w.d[K] * dpc[j] + w.d[K + 1] * dpe[j];
+        return v;
+      });
     }
-    if (side_masses(p_c, p_e, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
   }
 
   // Expansion valve between the liquid line and the evaporator inlet.
