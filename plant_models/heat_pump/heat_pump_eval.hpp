@@ -5,6 +5,7 @@
 
 #include "plant_models/core/tangent.hpp"
 #include "plant_models/heat_pump/heat_pump.hpp"
+#include "plant_models/heat_pump/hp_cell_ends.hpp"
 #include "plant_models/refrigerant/r32_smooth.hpp"
 #include "plant_models/zone/zone_rc.hpp"
 
@@ -80,57 +81,52 @@ void HeatPumpR32::map_side(const Eval<A>& from, Eval<B>& to, F&& f) const {
 template <class T>
 T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
                          const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const {
+  if (out == nullptr) {  // the mass only
+    hp::CellEnds<T> c;
+    if (!hp::cell_ends(p, h_in, h_out, t_air, o.line_blend, c)) return T(std::nan(""));
+    return volume * hp::cell_means(c, g_air, o).rho;
+  }
   const auto a = r32::ph_props(p, h_in);
   const auto b = r32::ph_props(p, h_out);
   const auto s = r32::sat_props(p);
   if (a.status != r32::Status::kOk || b.status != r32::Status::kOk || s.status != r32::Status::kOk)
     return T(std::nan(""));
-  // A two-phase end near a line also needs the single-phase branch beyond it (hp_profile.hpp).
-  const auto branch = [&](const T& h, const r32::PhState<T>& own) {
-    const int which = hp::needs_branch(h, s.h_l, s.h_v, o.line_blend);
-    if (which < 0) return own;
-    return r32::ph_table().ph_in(p, h, which == 2 ? r32::Region::kVapour : r32::Region::kLiquid);
-  };
-  const r32::PhState<T> a_alt = branch(h_in, a), b_alt = branch(h_out, b);
-  if (out == nullptr) {
-    hp::CellEnds<T> c{h_in, h_out, a.T,   b.T,           1.0 / a.rho,   1.0 / b.rho,
-                      s.T,  s.h_l, s.h_v, 1.0 / s.rho_l, 1.0 / s.rho_v, t_air};
-    c.T_in_alt = a_alt.T;
-    c.v_in_alt = 1.0 / a_alt.rho;
-    c.T_out_alt = b_alt.T;
-    c.v_out_alt = 1.0 / b_alt.rho;
-    return volume * hp::cell_means(c, g_air, o).rho;
-  }
-  // The same means in Tangent<4, T>: directions 0 the pressure level (the cell's friction
-  // offset held), 1 the inlet enthalpy, 2 the outlet enthalpy, 3 the air temperature.
+  // Where the vapour and liquid pieces end for each end (hp_cell_ends.hpp), in Tangent<4, T>:
+  // the partials of those states in the cell pressure (direction 0) and in the end's enthalpy
+  // (direction `dir`).
   using R = Tangent<4, T>;
-  const auto with = [](const T& v, int i, const T& slope, int j = -1, const T& slope_j = T(0.0)) {
-    R r(v);
-    r.d[static_cast<std::size_t>(i)] = slope;
-    if (j >= 0) r.d[static_cast<std::size_t>(j)] = slope_j;
-    return r;
+  const auto anchor = [&](const T& h, const r32::PhState<T>& own, int dir, bool vapour, R& temp,
+                          R& vol) {
+    const hp::AnchorState<T> x = hp::anchor_state(p, h, own, s, vapour, o.line_blend);
+    const r32::PhState<T>& st = x.state;
+    const T v2 = -1.0 / (st.rho * st.rho);
+    temp = R(st.T);
+    vol = R(T(1.0 / st.rho));
+    temp.d[0] = st.dT_dp_h + st.dT_dh_p * x.de_dp;
+    vol.d[0] = v2 * (st.drho_dp_h + st.drho_dh_p * x.de_dp);
+    temp.d[static_cast<std::size_t>(dir)] = st.dT_dh_p * x.de_dh;
+    vol.d[static_cast<std::size_t>(dir)] = v2 * st.drho_dh_p * x.de_dh;
   };
-  const auto volume_of = [&](const T& rho, const T& rho_p, int j, const T& rho_h) {
-    const T v = 1.0 / rho;
-    return with(v, 0, T(-rho_p * v * v), j, T(-rho_h * v * v));
+  // The means in Tangent<4, T>: directions 0 the pressure level (the cell's friction offset
+  // held), 1 the inlet enthalpy, 2 the outlet enthalpy, 3 the air temperature.
+  const auto on_p = [](const T& v, const T& slope) {
+    R r(v);
+    r.d[0] = slope;
+    return r;
   };
   hp::CellEnds<R> c;
   c.h_in = R::seed(h_in, 1);
   c.h_out = R::seed(h_out, 2);
   c.T_air = R::seed(t_air, 3);
-  c.T_in = with(a.T, 0, a.dT_dp_h, 1, a.dT_dh_p);
-  c.T_out = with(b.T, 0, b.dT_dp_h, 2, b.dT_dh_p);
-  c.v_in = volume_of(a.rho, a.drho_dp_h, 1, a.drho_dh_p);
-  c.v_out = volume_of(b.rho, b.drho_dp_h, 2, b.drho_dh_p);
-  c.T_in_alt = with(a_alt.T, 0, a_alt.dT_dp_h, 1, a_alt.dT_dh_p);
-  c.T_out_alt = with(b_alt.T, 0, b_alt.dT_dp_h, 2, b_alt.dT_dh_p);
-  c.v_in_alt = volume_of(a_alt.rho, a_alt.drho_dp_h, 1, a_alt.drho_dh_p);
-  c.v_out_alt = volume_of(b_alt.rho, b_alt.drho_dp_h, 2, b_alt.drho_dh_p);
-  c.T_sat = with(s.T, 0, s.dT_dp);
-  c.h_l = with(s.h_l, 0, s.dh_l_dp);
-  c.h_v = with(s.h_v, 0, s.dh_v_dp);
-  c.v_l = volume_of(s.rho_l, s.drho_l_dp, -1, T(0.0));
-  c.v_v = volume_of(s.rho_v, s.drho_v_dp, -1, T(0.0));
+  anchor(h_in, a, 1, true, c.T_in_v, c.v_in_v);
+  anchor(h_in, a, 1, false, c.T_in_l, c.v_in_l);
+  anchor(h_out, b, 2, true, c.T_out_v, c.v_out_v);
+  anchor(h_out, b, 2, false, c.T_out_l, c.v_out_l);
+  c.T_sat = on_p(s.T, s.dT_dp);
+  c.h_l = on_p(s.h_l, s.dh_l_dp);
+  c.h_v = on_p(s.h_v, s.dh_v_dp);
+  c.v_l = on_p(T(1.0 / s.rho_l), T(-s.drho_l_dp / (s.rho_l * s.rho_l)));
+  c.v_v = on_p(T(1.0 / s.rho_v), T(-s.drho_v_dp / (s.rho_v * s.rho_v)));
   const hp::CellMeans<R> m = hp::cell_means(c, g_air, o);
   CoilCell<T>& cell = *out;
   cell.p = p;

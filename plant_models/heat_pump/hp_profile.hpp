@@ -61,36 +61,62 @@ struct ProfileOptions {
   double area = 0.07;               // m^2, the cell's refrigerant-side area
   double blend_h = 10e3;            // J/kg, width of the alpha blend at the lines
   double eps_dt = 0.3;              // K, regularises T - T_air where it vanishes or changes sign
-  double line_blend = 1000.0;       // J/kg, an end this close to a line counts on both sides
+  double line_blend = 1000.0;       // J/kg, where a piece's end moves smoothly off a line
   double heat_sign = 1.0;           // +1: refrigerant warmer than the air (condenser), -1 colder
   VoidFraction void_fraction = VoidFraction::kZivi;
   TwoPhaseHtc htc = TwoPhaseHtc::kConstant;
   bool quadrature = false;  // integrate by Gauss-Legendre nodes (required by kSmith, htc != 0)
 };
 
-// One cell's ends and saturation data, all at the cell's pressure.
+// The compact smooth max(z, 0) of width w: 0 for z <= -w, z for z >= w, C2 in between (the
+// integral of a quintic smoothstep), and its slope (the smoothstep).
+template <class R>
+R smooth_max0(const R& z, double w) {
+  if (value_of(z) <= -w) return R(0.0);
+  if (value_of(z) >= w) return z;
+  const R t = (z + w) / (2.0 * w);
+  const R t4 = t * t * t * t;
+  return 2.0 * w * t4 * (2.5 + t * (-3.0 + t));
+}
+template <class R>
+R smooth_max0_slope(const R& z, double w) {
+  if (value_of(z) <= -w) return R(0.0);
+  if (value_of(z) >= w) return R(1.0);
+  const R t = (z + w) / (2.0 * w);
+  return t * t * t * (10.0 + t * (-15.0 + 6.0 * t));
+}
+
+// Where a single-phase piece of the profile ends, for a cell end of enthalpy h: the vapour piece
+// at V(h) = h_v + smax(h - h_v), the liquid piece at L(h) = h_l - smax(h_l - h) (smax of width
+// line_blend). Far beyond the line that is h itself, far before it the line; within line_blend
+// of the line it moves smoothly, so that a piece never switches from ending at the line to
+// ending at a moving end (the slopes of the means would jump). What the piece needs there:
+enum class Anchor {
+  kOwn,         // h itself: the end's own state
+  kLine,        // the saturation line
+  kBranchNear,  // V(h) or L(h) just beyond the line: the single-phase branch evaluated there
+};
+template <class R>
+Anchor vapour_anchor(const R& h, const R& h_v, double w) {
+  const double z = value_of(h) - value_of(h_v);
+  return z >= w ? Anchor::kOwn : z <= -w ? Anchor::kLine : Anchor::kBranchNear;
+}
+template <class R>
+Anchor liquid_anchor(const R& h, const R& h_l, double w) {
+  const double z = value_of(h_l) - value_of(h);
+  return z >= w ? Anchor::kOwn : z <= -w ? Anchor::kLine : Anchor::kBranchNear;
+}
+
+// One cell's ends and saturation data, all at the cell's pressure. For each end, the state where
+// the vapour piece ends (at V(h)) and where the liquid piece ends (at L(h)).
 template <class R>
 struct CellEnds {
-  R h_in{}, h_out{};                      // J/kg, inlet (upstream state) and outlet (the cell)
-  R T_in{}, T_out{};                      // K
-  R v_in{}, v_out{};                      // m^3/kg (single-phase values are the ones used)
-  R T_sat{}, h_l{}, h_v{}, v_l{}, v_v{};  // saturation at the cell pressure
-  R T_air{};                              // K, air entering the coil
-  // An end that is two-phase within line_blend of a line: T and v on the single-phase branch
-  // beyond that line, continued to the end's enthalpy (read only then; see needs_branch()).
-  R T_in_alt{}, v_in_alt{}, T_out_alt{}, v_out_alt{};
+  R h_in{}, h_out{};                           // J/kg, inlet (upstream state) and outlet (the cell)
+  R T_in_v{}, v_in_v{}, T_out_v{}, v_out_v{};  // K, m^3/kg on the vapour branch at V(h)
+  R T_in_l{}, v_in_l{}, T_out_l{}, v_out_l{};  // K, m^3/kg on the liquid branch at L(h)
+  R T_sat{}, h_l{}, h_v{}, v_l{}, v_v{};       // saturation at the cell pressure
+  R T_air{};                                   // K, air entering the coil
 };
-
-// Whether an end of enthalpy h needs its continued single-phase branch (CellEnds::*_alt), and
-// which: 0 the liquid branch, 2 the vapour branch, -1 none.
-template <class R>
-int needs_branch(const R& h, const R& h_l, const R& h_v, double line_blend) {
-  const double x = value_of(h), l = value_of(h_l), v = value_of(h_v);
-  if (x < l || x > v) return -1;
-  if (v - x < line_blend) return 2;
-  if (x - l < line_blend) return 0;
-  return -1;
-}
 
 template <class R>
 struct CellMeans {
@@ -314,86 +340,42 @@ CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptio
     return p;
   };
 
-  // The profile with each end assigned a region (0 liquid, 1 two-phase, 2 vapour): one piece per
-  // region from the outlet's to the inlet's, each from the end assigned to it or the line it
-  // shares with the next region towards the other end. Spans are signed (h_in - h_out is the
-  // total); an end assigned a region it is not in (within line_blend of the line, see below)
-  // gives that region's piece a short negative span, on that region's branch continued.
-  struct Point {
-    R h, T, v;
-  };
-  const Point line_l{c.h_l, c.T_sat, c.v_l}, line_v{c.h_v, c.T_sat, c.v_v};
-  const auto region_of = [&](const R& h) {
-    return value_of(h) > value_of(c.h_v) ? 2 : (value_of(h) < value_of(c.h_l) ? 0 : 1);
-  };
-  const int own_in = region_of(c.h_in), own_out = region_of(c.h_out);
-  const auto end_point = [&](bool inlet, int region) {
-    const R& h = inlet ? c.h_in : c.h_out;
-    const bool own = region == (inlet ? own_in : own_out);
-    if (own) return Point{h, inlet ? c.T_in : c.T_out, inlet ? c.v_in : c.v_out};
-    return Point{h, inlet ? c.T_in_alt : c.T_out_alt, inlet ? c.v_in_alt : c.v_out_alt};
+  // The pieces: [V(h_out), V(h_in)] vapour, [L(h_out), L(h_in)] liquid, and between them the
+  // two-phase piece [P(h_out), P(h_in)] with P(h) = h - smax(h - h_v) + smax(h_l - h): the
+  // spans add up to h_in - h_out, and each is a share in [0, 1] of it (V, P and L are monotone).
+  const double w = o.line_blend;
+  const auto V = [&](const R& h) { return c.h_v + smooth_max0(R(h - c.h_v), w); };
+  const auto L = [&](const R& h) { return c.h_l - smooth_max0(R(c.h_l - h), w); };
+  const auto P = [&](const R& h) {
+    return h - smooth_max0(R(h - c.h_v), w) + smooth_max0(R(c.h_l - h), w);
   };
   const R span = c.h_in - c.h_out;
-  const bool degenerate = value_of(span) == 0.0;
-  const auto assigned = [&](int r_in, int r_out) {
-    PieceIntegrals<R> sum;
-    const int step = r_in >= r_out ? 1 : -1;  // from the outlet's region to the inlet's
-    for (int r = r_out;; r += step) {
-      // The piece's outlet-side end A and inlet-side end B.
-      const bool a_end = r == r_out, b_end = r == r_in;
-      const auto line_toward = [&](int other) {  // the line between r and the next towards other
-        return (other < r) ? (r == 2 ? line_v : line_l) : (r == 0 ? line_l : line_v);
-      };
-      const Point A = a_end ? end_point(false, r) : line_toward(r_out);
-      const Point B = b_end ? end_point(true, r) : line_toward(r_in);
-      const R f = degenerate ? R(r == r_out ? 1.0 : 0.0) : R((B.h - A.h) / span);
-      if (value_of(f) != 0.0) {
-        const PieceIntegrals<R> p =
-            r == 1   ? two_phase(A.h, B.h)
-            : r == 2 ? single(A.h, A.T, A.v, B.h, B.T, B.v, o.alpha_vapour, c.h_v, 1.0)
-                     : single(A.h, A.T, A.v, B.h, B.T, B.v, o.alpha_liquid, c.h_l, -1.0);
-        sum.g += f * p.g;
-        sum.rho += f * p.rho;
-        sum.rho_h += f * p.rho_h;
-        sum.alpha += f * p.alpha;
-        sum.alpha_T += f * p.alpha_T;
-      }
-      if (r == r_in) break;
-    }
-    return CellMeans<R>{sum.rho / sum.g, sum.rho_h / sum.g, sum.alpha / sum.g, sum.alpha_T / sum.g};
+  std::array<R, 3> share{};  // vapour, two-phase, liquid
+  if (value_of(span) != 0.0) {
+    share[0] = (V(c.h_in) - V(c.h_out)) / span;
+    share[1] = (P(c.h_in) - P(c.h_out)) / span;
+    share[2] = (L(c.h_in) - L(c.h_out)) / span;
+  } else {  // a uniform cell: the slopes of V, P, L at its enthalpy
+    share[0] = smooth_max0_slope(R(c.h_out - c.h_v), w);
+    share[2] = smooth_max0_slope(R(c.h_l - c.h_out), w);
+    share[1] = 1.0 - share[0] - share[2];
+  }
+  PieceIntegrals<R> sum;
+  const auto add = [&sum](const R& f, const PieceIntegrals<R>& p) {
+    sum.g += f * p.g;
+    sum.rho += f * p.rho;
+    sum.rho_h += f * p.rho_h;
+    sum.alpha += f * p.alpha;
+    sum.alpha_T += f * p.alpha_T;
   };
-  // Within line_blend of a saturation line an end counts as on either side of it, the two
-  // profiles blended by a quintic smoothstep (C2), so that the means stay C2 as an end crosses
-  // the line: the piece beyond the line is anchored at the line on one side and at the end on
-  // the other, and the slopes of the two constructions differ there.
-  struct Choice {
-    int region[2];
-    R weight[2];
-    int count;
-  };
-  const auto choices = [&](const R& h, int own) {
-    const auto blend = [&](const R& line, int below) {
-      const R z = (h - line) / o.line_blend;  // in (-1, 1)
-      const R t = 0.5 * (z + 1.0);
-      const R s = t * t * t * (10.0 + t * (-15.0 + 6.0 * t));
-      return Choice{{below, below + 1}, {1.0 - s, s}, 2};
-    };
-    if (std::abs(value_of(h) - value_of(c.h_v)) < o.line_blend) return blend(c.h_v, 1);
-    if (std::abs(value_of(h) - value_of(c.h_l)) < o.line_blend) return blend(c.h_l, 0);
-    return Choice{{own, own}, {R(1.0), R(0.0)}, 1};
-  };
-  const Choice in = choices(c.h_in, own_in), out = choices(c.h_out, own_out);
-  CellMeans<R> m{};
-  for (int i = 0; i < in.count; ++i)
-    for (int j = 0; j < out.count; ++j) {
-      const R w = in.weight[i] * out.weight[j];
-      const CellMeans<R> a = assigned(in.region[i], out.region[j]);
-      m.rho += w * a.rho;
-      m.rho_h += w * a.rho_h;
-      m.alpha += w * a.alpha;
-      m.alpha_T += w * a.alpha_T;
-    }
-  return m;
+  if (value_of(share[0]) != 0.0)
+    add(share[0], single(V(c.h_out), c.T_out_v, c.v_out_v, V(c.h_in), c.T_in_v, c.v_in_v,
+                         o.alpha_vapour, c.h_v, 1.0));
+  if (value_of(share[1]) != 0.0) add(share[1], two_phase(P(c.h_out), P(c.h_in)));
+  if (value_of(share[2]) != 0.0)
+    add(share[2], single(L(c.h_out), c.T_out_l, c.v_out_l, L(c.h_in), c.T_in_l, c.v_in_l,
+                         o.alpha_liquid, c.h_l, -1.0));
+  return {sum.rho / sum.g, sum.rho_h / sum.g, sum.alpha / sum.g, sum.alpha_T / sum.g};
 }
 
 }  // namespace hvac_twin::plant::hp

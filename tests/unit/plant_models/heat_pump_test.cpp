@@ -7,7 +7,7 @@
 
 #include "finite_difference.hpp"
 #include "heat_pump_fixture.hpp"
-#include "plant_models/heat_pump/hp_profile.hpp"
+#include "plant_models/heat_pump/hp_cell_ends.hpp"
 #include "plant_models/refrigerant/r32_eos.hpp"
 #include "plant_models/refrigerant/r32_smooth.hpp"
 
@@ -105,12 +105,9 @@ double inventory(const HeatPumpRig& rig, const std::vector<double>& x,
   };
   const auto cell = [&](bool condenser, double p, double h_in_kj, double h_out_kj, double t_air,
                         double g_air) {
-    const auto in = r32::ph_props(p, 1e3 * h_in_kj), out = r32::ph_props(p, 1e3 * h_out_kj);
-    const auto sat = r32::sat_props(p);
-    const CellEnds<double> ends{1e3 * h_in_kj,   1e3 * h_out_kj, in.T,    out.T,   1.0 / in.rho,
-                                1.0 / out.rho,   sat.T,          sat.h_l, sat.h_v, 1.0 / sat.rho_l,
-                                1.0 / sat.rho_v, t_air + 273.15};
     const auto o = plant::HeatPumpR32::profile_options(P, condenser, n);
+    CellEnds<double> ends;
+    REQUIRE(cell_ends(p, 1e3 * h_in_kj, 1e3 * h_out_kj, t_air + 273.15, o.line_blend, ends));
     return cell_means(ends, g_air, o).rho;
   };
   const AirSide ac = air_side(P.cond, u[kOutdoorFan], P.fan_ua_exponent, n);

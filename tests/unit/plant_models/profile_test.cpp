@@ -32,24 +32,54 @@ ProfileOptions evaporator() {
   return o;
 }
 
-// The continued single-phase branch an end near a line needs (its own state otherwise).
-r32::PhState<double> branch(double p, double h, const r32::SatState<double>& s) {
-  const int which = needs_branch(h, s.h_l, s.h_v, ProfileOptions{}.line_blend);
-  if (which < 0) return r32::ph_props(p, h);
-  return r32::ph_table().ph_in(p, h, which == 2 ? r32::Region::kVapour : r32::Region::kLiquid);
+// A cell's ends as the model builds them (heat_pump_eval.hpp, coil_cell), in Tangent<1>: the
+// slope in the inlet's enthalpy (move_inlet) or the outlet's.
+using Slope = Tangent<1, double>;
+CellEnds<Slope> ends_t(double p, double h_in, double h_out, double t_air, bool move_inlet) {
+  const auto s = r32::sat_props(p);
+  const double w = ProfileOptions{}.line_blend;
+  const auto anchor = [&](double h, bool moving, bool vapour, Slope& T, Slope& v) {
+    const double k = moving ? 1.0 : 0.0;
+    const Anchor kind = vapour ? vapour_anchor(h, s.h_v, w) : liquid_anchor(h, s.h_l, w);
+    if (kind == Anchor::kLine) {
+      T = Slope(s.T);
+      v = Slope(1.0 / (vapour ? s.rho_v : s.rho_l));
+      return;
+    }
+    double e = h, de = 1.0;
+    if (kind == Anchor::kBranchNear) {
+      const double z = vapour ? h - s.h_v : s.h_l - h;
+      e = vapour ? s.h_v + smooth_max0(z, w) : s.h_l - smooth_max0(z, w);
+      de = smooth_max0_slope(z, w);
+    }
+    const auto st =
+        kind == Anchor::kOwn
+            ? r32::ph_props(p, h)
+            : r32::ph_table().ph_in(p, e, vapour ? r32::Region::kVapour : r32::Region::kLiquid);
+    T = Slope::seed(st.T, 0, k * st.dT_dh_p * de);
+    v = Slope::seed(1.0 / st.rho, 0, -k * st.drho_dh_p * de / (st.rho * st.rho));
+  };
+  CellEnds<Slope> c;
+  c.h_in = Slope::seed(h_in, 0, move_inlet ? 1.0 : 0.0);
+  c.h_out = Slope::seed(h_out, 0, move_inlet ? 0.0 : 1.0);
+  anchor(h_in, move_inlet, true, c.T_in_v, c.v_in_v);
+  anchor(h_in, move_inlet, false, c.T_in_l, c.v_in_l);
+  anchor(h_out, !move_inlet, true, c.T_out_v, c.v_out_v);
+  anchor(h_out, !move_inlet, false, c.T_out_l, c.v_out_l);
+  c.T_sat = Slope(s.T);
+  c.h_l = Slope(s.h_l);
+  c.h_v = Slope(s.h_v);
+  c.v_l = Slope(1.0 / s.rho_l);
+  c.v_v = Slope(1.0 / s.rho_v);
+  c.T_air = Slope(t_air);
+  return c;
 }
 
 CellEnds<double> ends(double p, double h_in, double h_out, double t_air) {
-  const auto a = r32::ph_props(p, h_in), b = r32::ph_props(p, h_out);
-  const auto s = r32::sat_props(p);
-  CellEnds<double> c{h_in, h_out, a.T,   b.T,           1.0 / a.rho,   1.0 / b.rho,
-                     s.T,  s.h_l, s.h_v, 1.0 / s.rho_l, 1.0 / s.rho_v, t_air};
-  const auto ai = branch(p, h_in, s), bo = branch(p, h_out, s);
-  c.T_in_alt = ai.T;
-  c.v_in_alt = 1.0 / ai.rho;
-  c.T_out_alt = bo.T;
-  c.v_out_alt = 1.0 / bo.rho;
-  return c;
+  const CellEnds<Slope> t = ends_t(p, h_in, h_out, t_air, true);
+  return {t.h_in.v,   t.h_out.v,  t.T_in_v.v,  t.v_in_v.v,  t.T_out_v.v, t.v_out_v.v,
+          t.T_in_l.v, t.v_in_l.v, t.T_out_l.v, t.v_out_l.v, t.T_sat.v,   t.h_l.v,
+          t.h_v.v,    t.v_l.v,    t.v_v.v,     t.T_air.v};
 }
 
 // The same profile integrated by brute force: the enthalpy range cut at the lines, 20000
@@ -119,15 +149,13 @@ CellMeans<double> brute(const CellEnds<double>& c, const ProfileOptions& o,
     rho_h = rhoh_before + (rho - rho_before) / gp * (rho_h - rhoh_before);  // mean rho x int h g
   };
   single_content([&] {
-    piece(hv_out, c.h_out > c.h_v ? c.T_out : c.T_sat, c.h_out > c.h_v ? c.v_out : c.v_v, hv_in,
-          c.h_in > c.h_v ? c.T_in : c.T_sat, c.h_in > c.h_v ? c.v_in : c.v_v, false, o.alpha_vapour,
-          c.h_v, 1.0);
+    piece(hv_out, c.T_out_v, c.v_out_v, hv_in, c.T_in_v, c.v_in_v, false, o.alpha_vapour, c.h_v,
+          1.0);
   });
   piece(tp_out, c.T_sat, 0, tp_in, c.T_sat, 0, true, 0, 0, 0);
   single_content([&] {
-    piece(hl_out, c.h_out < c.h_l ? c.T_out : c.T_sat, c.h_out < c.h_l ? c.v_out : c.v_l, hl_in,
-          c.h_in < c.h_l ? c.T_in : c.T_sat, c.h_in < c.h_l ? c.v_in : c.v_l, false, o.alpha_liquid,
-          c.h_l, -1.0);
+    piece(hl_out, c.T_out_l, c.v_out_l, hl_in, c.T_in_l, c.v_in_l, false, o.alpha_liquid, c.h_l,
+          -1.0);
   });
   return {rho / g, rho_h / g, alpha / g, alpha_t / g};
 }
@@ -192,39 +220,9 @@ TEST_CASE("the cell means and their slopes are continuous as an end crosses a sa
   const double p = 2.9e6;
   const auto s = r32::sat_props(p);
   const ProfileOptions o = condenser();
-  using T = Tangent<1, double>;
   // The means and their slope in the moving end, that end at line -+ delta.
   const auto at = [&](double h_in, double h_out, bool move_outlet) {
-    const auto seeded = [&](double h, bool moving) {
-      const auto own = r32::ph_props(p, h), alt = branch(p, h, s);
-      const double k = moving ? 1.0 : 0.0;
-      struct End {
-        T h, T_, v, T_alt, v_alt;
-      };
-      return End{T::seed(h, 0, k), T::seed(own.T, 0, k * own.dT_dh_p),
-                 T::seed(1.0 / own.rho, 0, -k * own.drho_dh_p / (own.rho * own.rho)),
-                 T::seed(alt.T, 0, k * alt.dT_dh_p),
-                 T::seed(1.0 / alt.rho, 0, -k * alt.drho_dh_p / (alt.rho * alt.rho))};
-    };
-    const auto i = seeded(h_in, !move_outlet), e = seeded(h_out, move_outlet);
-    CellEnds<T> c;
-    c.h_in = i.h;
-    c.T_in = i.T_;
-    c.v_in = i.v;
-    c.T_in_alt = i.T_alt;
-    c.v_in_alt = i.v_alt;
-    c.h_out = e.h;
-    c.T_out = e.T_;
-    c.v_out = e.v;
-    c.T_out_alt = e.T_alt;
-    c.v_out_alt = e.v_alt;
-    c.T_sat = T(s.T);
-    c.h_l = T(s.h_l);
-    c.h_v = T(s.h_v);
-    c.v_l = T(1.0 / s.rho_l);
-    c.v_v = T(1.0 / s.rho_v);
-    c.T_air = T(308.15);
-    return cell_means(c, kG, o);
+    return cell_means(ends_t(p, h_in, h_out, 308.15, !move_outlet), kG, o);
   };
   struct Crossing {
     const char* name;
@@ -261,6 +259,7 @@ TEST_CASE("the cell means' partials equal central differences", "[profile]") {
   const auto means = [&](double p, double h_in, double h_out, double t_air) {
     return cell_means(ends(p, h_in, h_out, t_air), kG, o);
   };
+  // Away from the lines (as here) each piece ends at an end's own state or at a line.
   const auto seeded = [&](double p, double h_in, double h_out, double t_air) {
     const auto a = r32::ph_props(p, h_in), b = r32::ph_props(p, h_out);
     const auto s = r32::sat_props(p);
@@ -270,25 +269,30 @@ TEST_CASE("the cell means' partials equal central differences", "[profile]") {
         t.d[static_cast<std::size_t>(i)] = x;
       return t;
     };
-    const auto vol = [&](double rho, double rp, int j, double rh) {
-      const double v = 1.0 / rho;
-      T t = with(v, {{0, -rp * v * v}});
-      if (j > 0) t.d[static_cast<std::size_t>(j)] = -rh * v * v;
-      return t;
+    const auto own = [&](const r32::PhState<double>& st, int j, T& temp, T& vol) {
+      const double v = 1.0 / st.rho;
+      temp = with(st.T, {{0, st.dT_dp_h}, {j, st.dT_dh_p}});
+      vol = with(v, {{0, -st.drho_dp_h * v * v}, {j, -st.drho_dh_p * v * v}});
+    };
+    const auto line = [&](bool vapour, T& temp, T& vol) {
+      const double rho = vapour ? s.rho_v : s.rho_l, rp = vapour ? s.drho_v_dp : s.drho_l_dp;
+      temp = with(s.T, {{0, s.dT_dp}});
+      vol = with(1.0 / rho, {{0, -rp / (rho * rho)}});
     };
     CellEnds<T> c;
     c.h_in = T::seed(h_in, 1);
     c.h_out = T::seed(h_out, 2);
     c.T_air = T::seed(t_air, 3);
-    c.T_in = with(a.T, {{0, a.dT_dp_h}, {1, a.dT_dh_p}});
-    c.T_out = with(b.T, {{0, b.dT_dp_h}, {2, b.dT_dh_p}});
-    c.v_in = vol(a.rho, a.drho_dp_h, 1, a.drho_dh_p);
-    c.v_out = vol(b.rho, b.drho_dp_h, 2, b.drho_dh_p);
+    own(a, 1, c.T_in_v, c.v_in_v);  // the inlet is vapour
+    line(false, c.T_in_l, c.v_in_l);
+    line(true, c.T_out_v, c.v_out_v);  // the outlet is two-phase
+    line(false, c.T_out_l, c.v_out_l);
+    (void)b;
     c.T_sat = with(s.T, {{0, s.dT_dp}});
     c.h_l = with(s.h_l, {{0, s.dh_l_dp}});
     c.h_v = with(s.h_v, {{0, s.dh_v_dp}});
-    c.v_l = vol(s.rho_l, s.drho_l_dp, -1, 0.0);
-    c.v_v = vol(s.rho_v, s.drho_v_dp, -1, 0.0);
+    c.v_l = with(1.0 / s.rho_l, {{0, -s.drho_l_dp / (s.rho_l * s.rho_l)}});
+    c.v_v = with(1.0 / s.rho_v, {{0, -s.drho_v_dp / (s.rho_v * s.rho_v)}});
     return cell_means(c, kG, o);
   };
   const double p = 2.9e6;
