@@ -1,10 +1,12 @@
-// What the heat-pump estimation benchmarks share: the truth (heat_pump_r32 at 20 cells with
-// perturbed parameters, driven by the simulator's scenario), the measured points with their
-// sensor noise and the noise the filters assume, and a filter's start as the daemon starts it.
+// What the heat-pump estimation benchmarks share: the truth (heat_pump_r32 converged and with
+// closures the filter's model does not share, tests/simulator/truth_model.hpp, driven by the
+// simulator's scenario), the measured points with their sensor noise and the noise the filters
+// assume, and a filter's start as the daemon starts it.
 //
-// The truth is finer than the filters' 10-cell model and its parameters are off the nominal
-// ones (condenser UA -10 %, evaporator UA +10 %, isentropic and volumetric efficiency -5 %), so
-// the benchmarks see the structural and parametric mismatch a real unit would give.
+// Three truths (TruthKind): the nominal unit (only the structural differences: void fraction,
+// two-phase heat transfer, friction, cell count); a unit whose parameters are off the nominal
+// ones as much as units of one model differ in the field (condenser UA -20 %, evaporator UA
+// +20 %, isentropic and volumetric efficiency -10 %); and the nominal unit with a biased sensor.
 // Header-only; benchmarks only (allocates freely).
 #pragma once
 
@@ -24,6 +26,7 @@
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/heat_pump/hp_layout.hpp"
 #include "tests/simulator/scenario.hpp"
+#include "tests/simulator/truth_model.hpp"
 
 namespace hvac_twin::bench {
 
@@ -44,18 +47,40 @@ inline const std::vector<Measured> kMeasured{
     {plant::hp::kEvapWallTempIn, 0.0, 0.2},     {plant::hp::kEvapWallTempOut, 0.0, 0.2},
     {plant::hp::kZoneAirTemperature, 0.0, 0.05}};
 
-// The truth: 20 cells, perturbed parameters, integrated tighter than the filters (rtol 1e-8),
-// driven by the simulator's heat-pump scenario; measured with seeded Gaussian sensor noise.
-// Per period: drive(t, dt) sets the scenario's inputs (which the caller may change), then
-// advance(dt) integrates over the period and measures at its end.
+enum class TruthKind { kNominal, kMismatched, kSensorBias };
+
+inline const char* truth_name(TruthKind k) {
+  switch (k) {
+    case TruthKind::kMismatched:
+      return "mismatched (UA -20/+20 %, efficiencies -10 %)";
+    case TruthKind::kSensorBias:
+      return "nominal, evaporator-outlet wall sensor +1 K";
+    case TruthKind::kNominal:
+      break;
+  }
+  return "nominal";
+}
+
+inline plant::ParameterMap truth_parameters(TruthKind k) {
+  plant::ParameterMap p = sim::truth_closures();
+  if (k == TruthKind::kMismatched) {
+    p["cond_ua_air"] = 750.0 * 0.8;
+    p["evap_ua_air"] = 450.0 * 1.2;
+    p["comp_eta_is_peak"] = 0.70 * 0.9;
+    p["comp_eta_v0"] = 0.95 * 0.9;
+  }
+  return p;
+}
+
+// The truth, integrated tighter than the filters (rtol 1e-8), driven by the simulator's
+// heat-pump scenario; measured with seeded Gaussian sensor noise (and, for kSensorBias, one
+// sensor's bias). Per period: drive(t, dt) sets the scenario's inputs (which the caller may
+// change), then advance(dt) integrates over the period and measures at its end.
 class HeatPumpTruth {
  public:
-  explicit HeatPumpTruth(const sim::ScenarioOptions& scenario = {}, std::uint64_t noise_seed = 7)
-      : model_(plant::create_model("heat_pump_r32", {{"cells", 20},
-                                                     {"cond_ua_air", 750.0 * 0.9},
-                                                     {"evap_ua_air", 450.0 * 1.1},
-                                                     {"comp_eta_is_peak", 0.70 * 0.95},
-                                                     {"comp_eta_v0", 0.95 * 0.95}})),
+  explicit HeatPumpTruth(const sim::ScenarioOptions& scenario = {}, std::uint64_t noise_seed = 7,
+                         TruthKind kind = TruthKind::kNominal)
+      : model_(plant::create_model("heat_pump_r32", truth_parameters(kind))),
         scenario_(sim::make_scenario("heat_pump_r32", *model_, scenario)),
         x_(scenario_->initial_state()),
         u_(plant::hp::kNumInputs, 0.0),
@@ -64,6 +89,7 @@ class HeatPumpTruth {
         integrator_(*model_, tight()),
         rng_(noise_seed) {
     u_[plant::hp::kIndoorFan] = u_[plant::hp::kOutdoorFan] = 1.0;
+    if (kind == TruthKind::kSensorBias) bias_[plant::hp::kEvapWallTempOut] = 1.0;  // K
   }
 
   // The scenario's inputs for [t, t + dt] at the current state.
@@ -83,7 +109,7 @@ class HeatPumpTruth {
     z_.clear();
     for (const auto& m : kMeasured) {
       const double sd = m.rel_sigma * std::abs(y_[m.output]) + m.abs_sigma;
-      const double v = y_[m.output] + sd * noise_(rng_);
+      const double v = y_[m.output] + bias_[m.output] + sd * noise_(rng_);
       const double sd_filter = kFilterNoiseFactor * sd;
       z_.push_back({m.output, v, sd_filter * sd_filter, true});
       y_measured_[m.output] = v;
@@ -109,6 +135,7 @@ class HeatPumpTruth {
   std::unique_ptr<plant::ContinuousModel> model_;
   std::unique_ptr<sim::Scenario> scenario_;
   std::vector<double> x_, u_, y_, y_measured_;
+  std::array<double, plant::hp::kNumOutputs> bias_{};  // sensor bias per output [output unit]
   std::vector<est::Measurement> z_;
   plant::Integrator integrator_;
   std::mt19937_64 rng_;

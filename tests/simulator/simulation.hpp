@@ -23,6 +23,9 @@ struct SimOptions {
   double step_s = 5.0;       // model seconds per truth step
   double noise_scale = 1.0;  // sensor noise sigma = noise_scale * the unit's measurement_noise
   plant::ParameterMap parameter_overrides;  // truth parameters differing from the configuration
+  // Heat pump: the truth's own cell count and closures (truth_model.hpp) over the configured
+  // parameters, before the overrides; false: the configured model as it is.
+  bool truth_closures = true;
 };
 
 class Simulation {
