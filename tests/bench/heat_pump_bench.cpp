@@ -6,14 +6,17 @@
 //    (default 10) with the compressor speed, valve, fans and outdoor temperature changing every
 //    15 minutes, integrated with the same integrator and tolerances as the simulator; prints
 //    simulated seconds per wall second and the integrator's work.
-// 2. Smoothing: the same day on the raw table (drho/dh jumping at the saturation lines):
-//    steps, error-test and convergence failures.
+// 2. Smoothing: the same day on the raw table for the line cells (drho/dh jumping at the
+//    saturation lines): steps, error-test and convergence failures.
+// 3. The cost of one right-hand side (a new pressure solve each time) and of one exact Jacobian
+//    at the nominal point, and their ratio.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "plant_models/catalog.hpp"
@@ -60,6 +63,31 @@ Run simulate(int cells, double smoothing, double hours) {
   return r;
 }
 
+// Microseconds per right-hand side (each at a slightly different state, so the pressure solve
+// is not cached) and per AD Jacobian, at the nominal point after 10 minutes.
+std::pair<double, double> costs(int cells) {
+  const auto model = create_model("heat_pump_r32", {{"cells", cells}, {"augment_fouling", 1}});
+  const auto& hp = dynamic_cast<const AdModel<HeatPumpR32>&>(*model).model();
+  std::vector<double> x = hp.initial_state(35.0, 27.0, hp.params().nameplate_charge);
+  const std::vector<double> u{50.0, 0.374, 1.0, 1.0, 35.0};
+  Integrator(*model, IntegratorOptions{}).step(x, u, 600.0, {});
+  const std::size_t n = x.size();
+  std::vector<double> f(n), jac(n * n);
+  const auto time = [&](int reps, auto&& call) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < reps; ++i) {
+      x[hp.slots().h_cond[0]] += 1e-9;
+      call();
+    }
+    return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0)
+               .count() /
+           reps;
+  };
+  const double rhs = time(2000, [&] { model->rhs(x, u, f); });
+  const double jacobian = time(500, [&] { model->rhs_jacobian(x, u, f, jac); });
+  return {rhs, jacobian};
+}
+
 void print(const char* label, const Run& r, double hours) {
   std::printf(
       "  %-28s %8.2f s wall  %8.0fx real time  steps %7ld  rhs %8ld  jac %6ld  "
@@ -92,6 +120,9 @@ int main(int argc, char** argv) {
   print("smoothing 300 J/kg (default)", smooth, hours);
   const Run sharp = simulate(cells, 0.0, hours);
   print("no smoothing (raw table)", sharp, hours);
+  const auto [rhs_us, jac_us] = costs(cells);
+  std::printf("  one right-hand side %.1f us, one exact Jacobian %.1f us (%.1f right-hand sides)\n",
+              rhs_us, jac_us, jac_us / rhs_us);
   const bool pass = smooth.ok && smooth.wall_s < hours * 3600.0;
   std::printf("%s: %.0fx faster than real time\n", pass ? "PASS" : "FAIL",
               hours * 3600.0 / smooth.wall_s);
