@@ -55,6 +55,7 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   }
   consecutive_rejections_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
+  init_consider(model.layout());
   if (options_.constrained) build_constraints();
 }
 
@@ -73,6 +74,8 @@ void Ekf::apply_constraints() {
   const ConstraintSet& c = *constraints_;
   const ProjectionResult result = projection_->solve(x_, P_, c.A(), c.b(), c.scale(), c.rows());
   if (!result.converged) ++counters_.projection_failures;
+  for (std::size_t i = 0; i < n_; ++i)  // nor does the projection move a consider state
+    if (consider_[i] != 0) x_(static_cast<Eigen::Index>(i)) = x_unc_(static_cast<Eigen::Index>(i));
   const auto active = projection_->active();
   active_count_ = active.size();
   std::copy(active.begin(), active.end(), active_.begin());
@@ -219,6 +222,9 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
   ph_.noalias() = P_ * H_.row(o).transpose();
   const double s = H_.row(o).dot(ph_) + r;
   k_ = ph_ / s;
+  // Consider states keep their values: no gain (the Joseph form below stays exact for any gain).
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (consider_[static_cast<std::size_t>(i)] != 0) k_(i) = 0.0;
   x_ += nu * k_;
   // Joseph form P' = (I - k h) P (I - k h)ᵀ + r k kᵀ, as rank-1 updates:
   // B = P - k (P hᵀ)ᵀ, then P' = B - (B hᵀ) kᵀ + r k kᵀ.

@@ -76,6 +76,7 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
   fused_.assign(static_cast<std::size_t>(f), 0);
   consecutive_rejections_.assign(max_measurements, 0);
   active_.assign(constraints_.rows(), -1);
+  init_consider(model.layout());
   // Sized by a factorisation, for the same reason as llt_.
   restore_P_ = Eigen::MatrixXd::Identity(n, n);
   ldlt_.compute(restore_P_);
@@ -265,6 +266,8 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     Kt_ = Pxy_.transpose();  // K = Pxy Pyy^-1, i.e. K' = Pyy^-1 Pxy'
     llt_.solveInPlace(Kt_);
     K_ = Kt_.transpose();
+    for (std::size_t j = 0; j < n_; ++j)  // consider states: no gain
+      if (consider_[j] != 0) K_.row(static_cast<Eigen::Index>(j)).setZero();
     X_.noalias() += K_ * D_;
     counters_.fused += f;
   }
@@ -288,7 +291,10 @@ void ConstrainedEnkf::constrain(std::span<const double> u) {
       W.xe = X_.col(static_cast<Eigen::Index>(i));
       W.projection->solve(W.xe, metric_, constraints_.A(), constraints_.b(), constraints_.scale(),
                           constraints_.static_rows());
-      X_.col(static_cast<Eigen::Index>(i)) = W.xe;
+      for (std::size_t j = 0; j < n_; ++j)  // a consider state keeps its member values
+        if (consider_[j] == 0)
+          X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) =
+              W.xe(static_cast<Eigen::Index>(j));
       for (const int row : W.projection->active()) {
         const bool known =
             std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
@@ -319,7 +325,7 @@ void ConstrainedEnkf::constrain(std::span<const double> u) {
           if (violated < 0) violated = row;
         }
         for (std::size_t j = 0; j < n_; ++j)
-          X_(static_cast<Eigen::Index>(j), I) = W.x[j];
+          if (consider_[j] == 0) X_(static_cast<Eigen::Index>(j), I) = W.x[j];
         const bool known =
             std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
                       violated) != W.active.begin() + static_cast<long>(W.active_count);

@@ -12,6 +12,9 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <vector>
+
+#include "plant_models/core/model_info.hpp"
 
 namespace hvac_twin::est {
 
@@ -85,7 +88,27 @@ class Estimator {
   [[nodiscard]] virtual std::span<const int> active_constraints() const = 0;
   [[nodiscard]] virtual const std::string& constraint_name(int row) const = 0;
 
+  // "Consider" states (Schmidt-Kalman): uncertain, their covariance propagated with the rest,
+  // but no update moves them, so their uncertainty reaches every estimate it affects without
+  // the data pulling them where they cannot be told apart from other states. Initially the
+  // model layout's StateInfo::consider; the caller may switch a state at any time (a
+  // commissioning period estimates what is otherwise considered). No allocation.
+  void set_consider(std::size_t state, bool consider) {
+    if (state < consider_.size()) consider_[state] = consider ? 1 : 0;
+  }
+  [[nodiscard]] bool considered(std::size_t state) const {
+    return state < consider_.size() && consider_[state] != 0;
+  }
+
  protected:
+  // Sizes the consider flags from the model's layout (constructors; allocates).
+  void init_consider(const plant::ModelLayout& layout) {
+    consider_.assign(layout.states.size(), 0);
+    for (std::size_t i = 0; i < layout.states.size(); ++i)
+      consider_[i] = layout.states[i].consider ? 1 : 0;
+  }
+  std::vector<char> consider_;
+
   // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A
   // checkpoint has already been checked by its loader; this guards every other caller.
   [[nodiscard]] static bool restorable(std::span<const double> x, std::span<const double> P,

@@ -42,6 +42,11 @@ struct StateInfo {
   double abs_tol = 1e-6;       // integrator absolute tolerance [unit]
   bool augmented = false;      // a slow unknown appended to the physical state (d' = 0)
   std::string description;
+  // A "consider" state: uncertain, carried in the covariance, but never moved by an update (a
+  // Schmidt-Kalman filter): its uncertainty reaches every estimate it affects, and no
+  // measurement pulls it where the data cannot separate it from other states. Estimators honour
+  // it; the configuration can change it per state.
+  bool consider = false;
 };
 
 struct SignalInfo {

@@ -32,7 +32,7 @@ std::string indexed(const char* base, std::size_t i) {
 HeatPumpR32::HeatPumpR32(const hp::Params& params)
     : p_(params),
       L_(static_cast<std::size_t>(params.cells), params.augment_gains, params.augment_leak,
-         params.augment_fouling),
+         params.augment),
       n_(static_cast<std::size_t>(params.cells)) {
   if (params.cells < 2 || n_ > kMaxCells)
     throw std::invalid_argument("heat pump: cells must be in [2, " + std::to_string(kMaxCells) +
@@ -44,7 +44,7 @@ HeatPumpR32::HeatPumpR32(const hp::Params& params)
     throw std::runtime_error("heat pump: the R32 property table failed to build");
   prof_cond_ = profile_options(p_, true, n_);
   prof_evap_ = profile_options(p_, false, n_);
-  cache_key_.assign(2 * n_ + 10, 0.0);
+  cache_key_.assign(2 * n_ + 15, 0.0);
 }
 
 hp::ProfileOptions HeatPumpR32::profile_options(const hp::Params& p, bool condenser,
@@ -85,6 +85,11 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions&
   key(in.t_air);
   key(in.g_cond);
   key(in.g_evap);
+  key(in.comp_flow);
+  key(in.void_exponent);
+  key(in.cond_htc);
+  key(in.evap_htc);
+  key(in.friction);
   for (std::size_t k = 0; k < N; ++k) {
     key(in.h_cond[k]);
     key(in.h_evap[k]);
@@ -98,18 +103,7 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions&
 
   using D = Dual<2>;
   SideInputs<D> dv;
-  dv.charge = in.charge;
-  dv.m_cond = in.m_cond;
-  dv.h_dl = in.h_dl;
-  dv.h_ll = in.h_ll;
-  dv.h_sl = in.h_sl;
-  for (std::size_t k = 0; k < N; ++k) {
-    dv.h_cond[k] = in.h_cond[k];
-    dv.h_evap[k] = in.h_evap[k];
-  }
-  dv.t_air = in.t_air;
-  dv.g_cond = in.g_cond;
-  dv.g_evap = in.g_evap;
+  map_inputs(in, dv, [](double v) { return D(v); });
   const auto newton = [&](double pc, double pe) {
     for (int it = 0; it < 40; ++it) {
       D r1, r2;
@@ -163,7 +157,8 @@ std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
   // Rated fans, the zone at t_zone; the friction at the rated speed.
   std::vector<double> x(L_.size, 0.0);
   x[L_.t_air] = t_zone_c;
-  if (L_.fouling != hp::kNone) x[L_.fouling] = p_.fouling;
+  for (std::size_t f = 0; f < hp::kNumFactors; ++f)
+    if (L_.factor[f] != hp::kNone) x[L_.factor[f]] = p_.factor[f];
   const std::vector<double> u{p_.speed_rated, 0.35, 1.0, 1.0, t_out_c};
   SideInputs<double> in = side_inputs(std::span<const double>(x), u);
   const Conditions c{p_.speed_rated, t_out_c + kKelvin};
@@ -277,9 +272,13 @@ ModelLayout HeatPumpR32::make_layout() const {
   if (L_.leak != hp::kNone)
     set(L_.leak, "leak_rate", "g/h", -50.0, 1000.0, 2.0, 1e-3, 1e-6, true,
         "refrigerant leak rate (random walk; negative: no loss seen)");
-  if (L_.fouling != hp::kNone)
-    set(L_.fouling, "fouling", "1", 0.2, 1.5, 0.05, 1e-5, 1e-9, true,
-        "outdoor-coil air-side UA factor, 1 = clean (random walk)");
+  for (std::size_t f = 0; f < hp::kNumFactors; ++f) {
+    if (L_.factor[f] == hp::kNone) continue;
+    const hp::FactorInfo& info = hp::factor_info()[f];
+    set(L_.factor[f], info.name, "1", info.min, info.max, info.initial_std, info.process_noise,
+        1e-9, true, info.description);
+    l.states[L_.factor[f]].consider = info.consider;
+  }
   set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
       "discharge-line enthalpy: the condenser inlet");
 

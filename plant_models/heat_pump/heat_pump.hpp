@@ -105,7 +105,8 @@ class HeatPumpR32 {
     std::array<S, kMaxCells> hdot_cond{}, hdot_evap{};  // J/(kg s)
     S hdot_dl{}, hdot_ll{}, hdot_sl{};
     S pdot_cond{}, pdot_evap{};
-    S t_air{}, t_mass{}, q_int{}, fouling{};
+    S t_air{}, t_mass{}, q_int{};
+    S cond_htc{}, evap_htc{};     // the two-phase heat-transfer factors (for the end walls)
     S t_air_dot{}, t_mass_dot{};  // K/s, the zone balance
     S g_cond{}, g_evap{};         // W/K, air side of one cell
     S q_zone{};                   // W, heat the indoor unit puts into the zone (negative cooling)
@@ -121,7 +122,8 @@ class HeatPumpR32 {
     T h_dl{}, h_ll{}, h_sl{};                     // J/kg
     std::array<T, kMaxCells> h_cond{}, h_evap{};  // J/kg
     T t_air{};                                    // K, zone air (the evaporator's air inlet)
-    T g_cond{}, g_evap{};                         // W/K per cell, air side
+    T g_cond{}, g_evap{};  // W/K per cell, air side (UA factors included)
+    T comp_flow{}, void_exponent{}, cond_htc{}, evap_htc{}, friction{};  // factors (Factor)
   };
   struct Conditions {
     double speed = 0.0;  // Hz
@@ -143,8 +145,14 @@ class HeatPumpR32 {
   // One coil cell at pressure p: its mass [kg]; with `out`, also its mass partials and profile
   // means (the profile evaluated with Tangent<4, T> in p, h_in, h_out, t_air).
   template <class T>
-  T coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
-              const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const;
+  T coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air,
+              const hp::CellScalars<T>& k, const hp::ProfileOptions& o, double volume,
+              CoilCell<T>* out) const;
+  // A factor's value: its state, or the parameter when it is not a state.
+  template <class S>
+  S factor(std::span<const S> x, hp::Factor f) const {
+    return L_.factor[f] != hp::kNone ? x[L_.factor[f]] : S(p_.factor[f]);
+  }
   // Solves the pressures in double precision (warm-started, cached by the inputs).
   int solve_pressures(const SideInputs<double>& in, const Conditions& c, double& p_cond,
                       double& p_evap, std::array<double, 4>& jac) const;

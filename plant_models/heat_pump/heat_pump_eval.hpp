@@ -29,11 +29,15 @@ HeatPumpR32::SideInputs<S> HeatPumpR32::side_inputs(std::span<const S> x,
     in.h_evap[k] = 1e3 * x[L_.h_evap[k]];
   }
   in.t_air = x[L_.t_air] + kKelvin;
-  const S fouling = L_.fouling != hp::kNone ? x[L_.fouling] : S(p_.fouling);
   const hp::AirSide ac = hp::air_side(p_.cond, u[hp::kOutdoorFan], p_.fan_ua_exponent, n_);
   const hp::AirSide ae = hp::air_side(p_.evap, u[hp::kIndoorFan], p_.fan_ua_exponent, n_);
-  in.g_cond = ac.capacity_rate * (1.0 - exp(-ac.ntu * fouling));
-  in.g_evap = S(ae.capacity_rate * (1.0 - std::exp(-ae.ntu)));
+  in.g_cond = ac.capacity_rate * (1.0 - exp(-ac.ntu * factor(x, hp::kCondUa)));
+  in.g_evap = ae.capacity_rate * (1.0 - exp(-ae.ntu * factor(x, hp::kEvapUa)));
+  in.comp_flow = factor(x, hp::kCompFlow);
+  in.void_exponent = factor(x, hp::kVoidExponent);
+  in.cond_htc = factor(x, hp::kCondHtc);
+  in.evap_htc = factor(x, hp::kEvapHtc);
+  in.friction = factor(x, hp::kFriction);
   return in;
 }
 
@@ -51,6 +55,11 @@ void HeatPumpR32::map_inputs(const SideInputs<A>& from, SideInputs<B>& to, F&& f
   to.t_air = f(from.t_air);
   to.g_cond = f(from.g_cond);
   to.g_evap = f(from.g_evap);
+  to.comp_flow = f(from.comp_flow);
+  to.void_exponent = f(from.void_exponent);
+  to.cond_htc = f(from.cond_htc);
+  to.evap_htc = f(from.evap_htc);
+  to.friction = f(from.friction);
 }
 
 template <class A, class B, class F>
@@ -79,12 +88,13 @@ void HeatPumpR32::map_side(const Eval<A>& from, Eval<B>& to, F&& f) const {
 }
 
 template <class T>
-T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air, const T& g_air,
-                         const hp::ProfileOptions& o, double volume, CoilCell<T>* out) const {
+T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air,
+                         const hp::CellScalars<T>& k, const hp::ProfileOptions& o, double volume,
+                         CoilCell<T>* out) const {
   if (out == nullptr) {  // the mass only
     hp::CellEnds<T> c;
     if (!hp::cell_ends(p, h_in, h_out, t_air, o.line_blend, c)) return T(std::nan(""));
-    return volume * hp::cell_means(c, g_air, o).rho;
+    return volume * hp::cell_means(c, k, o).rho;
   }
   const auto a = r32::ph_props(p, h_in);
   const auto b = r32::ph_props(p, h_out);
@@ -127,7 +137,7 @@ T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_a
   c.h_v = on_p(s.h_v, s.dh_v_dp);
   c.v_l = on_p(T(1.0 / s.rho_l), T(-s.drho_l_dp / (s.rho_l * s.rho_l)));
   c.v_v = on_p(T(1.0 / s.rho_v), T(-s.drho_v_dp / (s.rho_v * s.rho_v)));
-  const hp::CellMeans<R> m = hp::cell_means(c, g_air, o);
+  const hp::CellMeans<R> m = hp::cell_means(c, k, o);
   CoilCell<T>& cell = *out;
   cell.p = p;
   cell.T_in = a.T;
@@ -164,8 +174,11 @@ int HeatPumpR32::side_masses(const T& p_cond, const T& p_evap, const SideInputs<
   };
   LineCell<T> dl, ll, sl;
   bool ok = line(p_evap, in.h_sl, sl);  // the compressor inlet
-  const hp::CompressorFlow<T> comp = hp::compressor(p_, p_evap, sl.rho, in.h_sl, p_cond, c.speed);
-  const T drop = pow(T(comp.mdot / p_.nominal_mass_flow), p_.dp_exponent);
+  hp::CompressorFlow<T> comp = hp::compressor(p_, p_evap, sl.rho, in.h_sl, p_cond, c.speed);
+  comp.mdot *= in.comp_flow;  // the efficiency factor acts in evaluate(): not on the masses
+  comp.w_ref *= in.comp_flow;
+  comp.w_elec *= in.comp_flow;
+  const T drop = in.friction * pow(T(comp.mdot / p_.nominal_mass_flow), p_.dp_exponent);
   const T dp_cond = p_.cond.dp_nominal * drop;
   const T dp_evap = p_.evap.dp_nominal * drop;
 
@@ -202,15 +215,17 @@ int HeatPumpR32::side_masses(const T& p_cond, const T& p_evap, const SideInputs<
   if (!ok) return kModelRecoverable;
   const double v_cond = p_.cond.volume * inv_n, v_evap = p_.evap.volume * inv_n;
   const T t_out(c.t_out);
+  const hp::CellScalars<T> k_cond{in.g_cond, in.cond_htc, in.void_exponent};
+  const hp::CellScalars<T> k_evap{in.g_evap, in.evap_htc, in.void_exponent};
   T mass_cond = p_.discharge_line_volume * dl.rho + p_.liquid_line_volume * ll.rho;
   T mass_evap = p_.suction_line_volume * sl.rho;
   for (std::size_t k = 0; k < N; ++k) {
     const T& h_in = k == 0 ? in.h_dl : in.h_cond[k - 1];
-    mass_cond += coil_cell(T(p_cond - dp_cond * w_cond[k]), h_in, in.h_cond[k], t_out, in.g_cond,
+    mass_cond += coil_cell(T(p_cond - dp_cond * w_cond[k]), h_in, in.h_cond[k], t_out, k_cond,
                            prof_cond_, v_cond, e != nullptr ? &e->cond[k] : nullptr);
     const T& h_in_e = k == 0 ? in.h_ll : in.h_evap[k - 1];
     mass_evap += coil_cell(T(p_evap + dp_evap * (1.0 - w_evap[k])), h_in_e, in.h_evap[k], in.t_air,
-                           in.g_evap, prof_evap_, v_evap, e != nullptr ? &e->evap[k] : nullptr);
+                           k_evap, prof_evap_, v_evap, e != nullptr ? &e->evap[k] : nullptr);
   }
   if (!isfinite(value_of(mass_cond)) || !isfinite(value_of(mass_evap))) return kModelRecoverable;
   r_cond = mass_cond - in.m_cond;
@@ -286,12 +301,18 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
     }
   }
 
+  // The compressor's isentropic-efficiency factor: on the discharge enthalpy and the work.
+  const S comp_efficiency = factor(x, hp::kCompWork);
+  e.comp.h_dis = si.h_sl + (e.comp.h_dis - si.h_sl) / comp_efficiency;
+  e.comp.w_ref = e.comp.w_ref / comp_efficiency;
+  e.comp.w_elec = e.comp.w_elec / comp_efficiency;
   // Expansion valve between the liquid line and the evaporator inlet.
-  e.mdot_valve =
-      hp::valve_flow(p_, u[hp::kValveOpening], e.ll.rho, S(e.ll.p - (e.p_evap + e.dp_evap)));
+  e.mdot_valve = factor(x, hp::kValve) * hp::valve_flow(p_, u[hp::kValveOpening], e.ll.rho,
+                                                         S(e.ll.p - (e.p_evap + e.dp_evap)));
   e.leak = L_.leak != hp::kNone ? x[L_.leak] * kGramPerHour : S(p_.leak_rate * kGramPerHour);
   e.q_int = L_.q_int != hp::kNone ? x[L_.q_int] : S(p_.internal_gains);
-  e.fouling = L_.fouling != hp::kNone ? x[L_.fouling] : S(p_.fouling);
+  e.cond_htc = si.cond_htc;
+  e.evap_htc = si.evap_htc;
   e.t_air = x[L_.t_air];
   e.t_mass = x[L_.t_mass];
   e.g_cond = si.g_cond;
@@ -426,7 +447,8 @@ int HeatPumpR32::rhs(std::span<const S> x, std::span<const double> u, std::span<
   xdot[L_.t_mass] = e.t_mass_dot;
   if (L_.q_int != hp::kNone) xdot[L_.q_int] = S(0.0);
   if (L_.leak != hp::kNone) xdot[L_.leak] = S(0.0);
-  if (L_.fouling != hp::kNone) xdot[L_.fouling] = S(0.0);
+  for (const std::size_t i : L_.factor)
+    if (i != hp::kNone) xdot[i] = S(0.0);
   return kModelOk;
 }
 
@@ -451,9 +473,10 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   // the cell's mean wall in steady balance with its profile (exact at steady state; the wall's
   // lag is carried by the state).
   const auto wall_at_end = [&](const CoilCell<S>& c, const ProfileOptions& o, const S& g,
-                               const S& t_air_k, const S& p_end, const S& h_end, const S& tw) {
+                               const S& k_htc, const S& t_air_k, const S& p_end, const S& h_end,
+                               const S& tw) {
     const S t_end = r32::ph_props(p_end, h_end).T;
-    const S a_end = local_alpha(o, h_end, c.h_l, c.h_v) * o.area;
+    const S a_end = local_alpha(o, h_end, c.h_l, c.h_v, k_htc) * o.area;
     const S local = (a_end * t_end + g * t_air_k) / (a_end + g);
     const S mean = (o.area * c.alpha_T + g * t_air_k) / (o.area * c.alpha + g);
     return tw + (local - mean);
@@ -464,14 +487,14 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   const S h_last_e = 1e3 * x[L_.h_evap.last()];
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;
-  y[kCondWallTempIn] =
-      wall_at_end(e.cond[0], prof_cond_, e.g_cond, t_out_k, e.p_cond, e.dl.h, x[L_.tw_cond[0]]);
-  y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, t_out_k, e.ll.p, h_last_c,
-                                    x[L_.tw_cond.last()]);
-  y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, t_air_k,
+  y[kCondWallTempIn] = wall_at_end(e.cond[0], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
+                                   e.p_cond, e.dl.h, x[L_.tw_cond[0]]);
+  y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
+                                    e.ll.p, h_last_c, x[L_.tw_cond.last()]);
+  y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
                                    S(e.p_evap + e.dp_evap), e.ll.h, x[L_.tw_evap[0]]);
-  y[kEvapWallTempOut] = wall_at_end(e.evap[N - 1], prof_evap_, e.g_evap, t_air_k, e.p_evap,
-                                    h_last_e, x[L_.tw_evap.last()]);
+  y[kEvapWallTempOut] = wall_at_end(e.evap[N - 1], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
+                                    e.p_evap, h_last_e, x[L_.tw_evap.last()]);
   y[kZoneAirTemperature] = e.t_air;
   y[kSupplyAirTemperature] = e.t_air - capacity / (air_e.capacity_rate * static_cast<double>(N));
   y[kCompressorPower] = e.comp.w_elec;
@@ -489,7 +512,7 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   y[kLeakRate] = e.leak / kGramPerHour;
   y[kMassTemperature] = e.t_mass;
   y[kInternalGains] = e.q_int;
-  y[kOutdoorCoilFouling] = e.fouling;
+  y[kOutdoorCoilFouling] = factor(x, hp::kCondUa);
   return kModelOk;
 }
 

@@ -11,18 +11,23 @@
 //   h_evap_i          [kJ/kg]  evaporator cell outlet enthalpies
 //   h_suction_line    [kJ/kg]  suction line (adiabatic cell): the compressor inlet
 //   T_air             [degC]   zone air (as zone_rc): the evaporator's air inlet
-//   fouling           [1]      outdoor-coil air-side UA factor (augmented, optional)
+//   factors           [1]      uncertain parameters the pressure solve reads (augmented,
+//                              optional; Factor below): fouling, evap_ua_factor,
+//                              comp_flow_factor, void_exponent, cond_htc_factor,
+//                              evap_htc_factor, friction_factor
 //   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
 //   Tw_evap_i         [degC]   evaporator wall temperatures
 //   T_mass            [degC]   building mass (as zone_rc)
 //   Q_int             [W]      internal gains            (augmented, optional)
 //   leak_rate         [g/h]    refrigerant leak           (augmented, optional)
+//   factors           [1]      the others: valve_factor, comp_efficiency_factor
 // The low-side mass is charge - M_cond; the two pressures are algebraic (see heat_pump.hpp).
-// The states up to fouling are everything the pressure solve reads: the cells' masses depend on
-// the enthalpies and, through the cell profiles' position weights, on the air temperatures and
-// the air-side conductances.
+// The states up to the first group of factors are everything the pressure solve reads: the
+// cells' masses depend on the enthalpies and, through the cell profiles' position weights, on
+// the air temperatures and the conductances.
 #pragma once
 
+#include <array>
 #include <cstddef>
 
 namespace hvac_twin::plant::hp {
@@ -36,16 +41,40 @@ struct Slice {
 
 inline constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 
+// Uncertain parameters of the model that a filter can carry as states (random walks it
+// estimates, or "consider" states whose uncertainty it carries without estimating them), each a
+// factor on a nominal value except the void-fraction exponent. Parameters and state names:
+// hp_params.cpp (factor_table).
+enum Factor : std::size_t {
+  kCondUa,        // fouling: outdoor-coil air-side UA (fouling, air flow)
+  kEvapUa,        // evap_ua_factor: indoor-coil air-side UA
+  kCompFlow,      // comp_flow_factor: compressor volumetric efficiency
+  kVoidExponent,  // void_exponent: slip-ratio void fraction (rho_v/rho_l)^e, Zivi 2/3
+  kCondHtc,       // cond_htc_factor: condensing heat transfer coefficient
+  kEvapHtc,       // evap_htc_factor: boiling heat transfer coefficient
+  kFriction,      // friction_factor: both coils' refrigerant pressure drops
+  kValve,         // valve_factor: expansion-valve flow coefficient
+  kCompWork,      // comp_efficiency_factor: compressor isentropic efficiency
+  kNumFactors
+};
+// Factors before this one feed the pressure solve.
+inline constexpr std::size_t kFirstLateFactor = kValve;
+
 struct Layout {
   std::size_t cells = 0;
   std::size_t charge = 0, m_cond = 1;
   Slice h_cond, tw_cond, h_evap, tw_evap;
   std::size_t h_dl = 0, h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
   std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the pressure solve
-  std::size_t q_int = kNone, leak = kNone, fouling = kNone;  // kNone: not augmented
+  std::size_t q_int = kNone, leak = kNone;  // kNone: not augmented
+  std::array<std::size_t, kNumFactors> factor{};  // kNone: not augmented
+  std::size_t fouling = kNone;                    // factor[kCondUa], by its historical name
   std::size_t size = 0;
 
-  Layout(std::size_t n, bool gains, bool leak_rate, bool fouling_factor) : cells(n) {
+  Layout(std::size_t n, bool gains, bool leak_rate,
+         const std::array<bool, kNumFactors>& augmented)
+      : cells(n) {
+    factor.fill(kNone);
     std::size_t at = 2;
     auto take = [&at](std::size_t count) {
       const Slice s{at, count};
@@ -60,13 +89,17 @@ struct Layout {
     h_evap = take(n);
     h_sl = at++;
     t_air = at++;
-    if (fouling_factor) fouling = at++;
+    for (std::size_t f = 0; f < kFirstLateFactor; ++f)
+      if (augmented[f]) factor[f] = at++;
     refrigerant_states = at;
     tw_cond = take(n);
     tw_evap = take(n);
     t_mass = at++;
     if (gains) q_int = at++;
     if (leak_rate) leak = at++;
+    for (std::size_t f = kFirstLateFactor; f < kNumFactors; ++f)
+      if (augmented[f]) factor[f] = at++;
+    fouling = factor[kCondUa];
     size = at;
   }
 };

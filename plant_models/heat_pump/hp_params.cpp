@@ -126,9 +126,6 @@ const std::vector<Entry>& table() {
       {{"leak_rate", "g/h", d.leak_rate, 0.0, 1e4, false,
         "refrigerant leak when it is not estimated (the simulator's leak scenario sets it)"},
        HP_REF(leak_rate)},
-      {{"fouling", "1", d.fouling, 0.2, 1.5, false,
-        "outdoor-coil air-side UA factor when it is not estimated"},
-       HP_REF(fouling)},
   };
   return entries;
 }
@@ -148,9 +145,6 @@ const std::vector<Flag>& flags() {
       {{"augment_leak", "1", 1.0, 0.0, 1.0, true,
         "1: estimate the refrigerant leak rate as a random-walk state"},
        [](Params& p, bool v) { p.augment_leak = v; }},
-      {{"augment_fouling", "1", 0.0, 0.0, 1.0, true,
-        "1: estimate the outdoor-coil air-side UA factor as a random-walk state"},
-       [](Params& p, bool v) { p.augment_fouling = v; }},
   };
   return entries;
 }
@@ -180,7 +174,40 @@ const std::vector<Choice>& choices() {
 
 constexpr const char* kZonePrefix = "zone_";
 
+std::string augment_name(const FactorInfo& f) {
+  return std::string("augment_") + f.name;
+}
+
 }  // namespace
+
+const std::array<FactorInfo, kNumFactors>& factor_info() {
+  // Ranges: physical plausibility. Priors: how far a unit of this model can be from the
+  // nominal value (one sigma). Random walks: how fast it can drift (fouling over weeks), 0 for
+  // what does not change in a unit's life. Considered by default: the closures no sensor
+  // separates from the charge or from each other (see plant_models/README.md).
+  static const std::array<FactorInfo, kNumFactors> table{{
+      {"fouling", 0.2, 1.5, 0.15, 1e-5, false,
+       "outdoor-coil air-side UA factor, 1 = clean (fouling, air flow)"},
+      {"evap_ua_factor", 0.3, 2.0, 0.15, 1e-5, false,
+       "indoor-coil air-side UA factor (fouling, filter, air flow)"},
+      {"comp_flow_factor", 0.6, 1.4, 0.08, 1e-6, false,
+       "factor on the compressor's volumetric efficiency"},
+      {"void_exponent", 0.4, 1.0, 0.08, 0.0, true,
+       "exponent e of the two-phase slip, void fraction x / (x + (1 - x)(rho_v/rho_l)^e): "
+       "2/3 Zivi, 1 homogeneous"},
+      {"cond_htc_factor", 0.3, 3.0, 0.3, 0.0, true,
+       "factor on the condensing heat transfer coefficient"},
+      {"evap_htc_factor", 0.3, 3.0, 0.3, 0.0, true,
+       "factor on the boiling heat transfer coefficient"},
+      {"friction_factor", 0.3, 3.0, 0.25, 0.0, true,
+       "factor on both coils' refrigerant pressure drops"},
+      {"valve_factor", 0.3, 2.0, 0.15, 1e-5, false,
+       "factor on the expansion valve's flow coefficient"},
+      {"comp_efficiency_factor", 0.6, 1.4, 0.08, 1e-6, false,
+       "factor on the compressor's isentropic efficiency"},
+  }};
+  return table;
+}
 
 std::vector<ParameterInfo> parameter_info() {
   std::vector<ParameterInfo> out;
@@ -189,8 +216,17 @@ std::vector<ParameterInfo> parameter_info() {
     out.push_back(f.info);
   for (const auto& c : choices())
     out.push_back(c.info);
+  for (const auto& f : factor_info())
+    out.push_back({augment_name(f), "1", 0.0, 0.0, 1.0, true,
+                   std::string("1: carry ") + f.name + " as a state (estimated or considered)"});
   for (const auto& e : table())
     out.push_back(e.info);
+  const Params d{};
+  for (std::size_t k = 0; k < kNumFactors; ++k) {
+    const FactorInfo& f = factor_info()[k];
+    out.push_back({f.name, "1", d.factor[k], f.min, f.max, false,
+                   std::string(f.description) + " (when not a state: its value)"});
+  }
   for (ParameterInfo z : ZoneRc::parameter_info()) {
     if (z.name == "hp_fraction_air") continue;  // the indoor unit blows into the air node
     z.name = kZonePrefix + z.name;
@@ -211,6 +247,11 @@ Params params_from_map(const ParameterMap& values) {
     f.set(p, get(f.info.name, f.info.default_value) != 0.0);
   for (const auto& c : choices())
     c.ref(p) = static_cast<int>(get(c.info.name, c.info.default_value));
+  for (std::size_t k = 0; k < kNumFactors; ++k) {
+    const FactorInfo& f = factor_info()[k];
+    p.augment[k] = get(augment_name(f), 0.0) != 0.0;
+    p.factor[k] = get(f.name, p.factor[k]);
+  }
   for (const auto& e : table())
     e.ref(p) = get(e.info.name, e.info.default_value);
   ParameterMap zone;

@@ -3,9 +3,11 @@
 // about 3.5 kW rated cooling; plant_models/README.md says where each value comes from.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include "plant_models/core/model_info.hpp"
+#include "plant_models/heat_pump/hp_layout.hpp"
 #include "plant_models/zone/zone_rc.hpp"
 
 namespace hvac_twin::plant::hp {
@@ -25,7 +27,7 @@ struct Params {
   int cells = 10;  // finite-volume cells per heat exchanger
   bool augment_gains = true;
   bool augment_leak = true;
-  bool augment_fouling = false;
+  std::array<bool, kNumFactors> augment{};  // factors carried as states (Factor, hp_layout.hpp)
 
   // Compressor (variable-speed rotary).
   double displacement = 13.0e-6;    // m3 per revolution
@@ -66,10 +68,25 @@ struct Params {
   // Values of the unknowns when they are not estimated (not augmented).
   double internal_gains = 300.0;  // W
   double leak_rate = 0.0;         // g/h
-  double fouling = 1.0;           // 1
+  // The factors' values (their states' initial values when augmented): all 1 but the
+  // void-fraction exponent (Zivi's 2/3).
+  std::array<double, kNumFactors> factor{1.0, 1.0, 1.0, 2.0 / 3.0, 1.0, 1.0, 1.0, 1.0, 1.0};
 
   ZoneRc::Params zone{};  // hp_fraction_air is 1: the indoor unit blows into the air node
 };
+
+// What a factor is as a parameter and as a state: its name (of both), range, the filter's
+// initial sigma and random walk [1/sqrt(s)], whether a filter considers it rather than
+// estimates it by default, and a description.
+struct FactorInfo {
+  const char* name;
+  double min, max;
+  double initial_std;
+  double process_noise;
+  bool consider;
+  const char* description;
+};
+const std::array<FactorInfo, kNumFactors>& factor_info();
 
 // The parameter table (names, units, defaults, bounds, descriptions) and the map it reads.
 std::vector<ParameterInfo> parameter_info();

@@ -118,6 +118,15 @@ struct CellEnds {
   R T_air{};                                   // K, air entering the coil
 };
 
+// The model-scalar closures of one cell (they may be states): its air-side conductance [W/K],
+// the factor on its two-phase heat transfer coefficient, the void-fraction slip exponent.
+template <class G>
+struct CellScalars {
+  G g_air{};
+  G alpha_factor{1.0};
+  G void_exponent{2.0 / 3.0};
+};
+
 template <class R>
 struct CellMeans {
   R rho{};      // kg/m^3, mean density: the cell's mass is V rho
@@ -168,9 +177,10 @@ R mean_decay(const R& d1, const R& d2, double w) {
   return exp(-d1 / w) * rel_expm1(R(-(d2 - d1) / w));
 }
 
-// Void fraction of the quadrature closures.
-template <class R>
-R void_fraction(VoidFraction model, const R& x, const R& rho_ratio /* rho_v / rho_l */) {
+// Void fraction of the quadrature closures; e the slip family's exponent (Zivi 2/3).
+template <class R, class E>
+R void_fraction(VoidFraction model, const R& x, const R& rho_ratio /* rho_v / rho_l */,
+                const E& e) {
   using std::pow;
   using std::sqrt;
   if (value_of(x) <= 0.0) return R(0.0);
@@ -182,10 +192,10 @@ R void_fraction(VoidFraction model, const R& x, const R& rho_ratio /* rho_v / rh
     const R slip = k + (1.0 - k) * sqrt((1.0 / rho_ratio + k * y) / (1.0 + k * y));
     return 1.0 / (1.0 + y * rho_ratio * slip);
   }
-  const double e = model == VoidFraction::kZivi ? 2.0 / 3.0 : 1.0;
   using std::exp;
   using std::log;
-  return 1.0 / (1.0 + y * exp(e * log(rho_ratio)));
+  if (model == VoidFraction::kHomogeneous) return 1.0 / (1.0 + y * rho_ratio);
+  return 1.0 / (1.0 + y * exp(R(e) * log(rho_ratio)));
 }
 
 // Two-phase alpha of the quadrature closures at quality x.
@@ -223,26 +233,26 @@ inline double line_alpha(const ProfileOptions& o, bool dew) {
 }
 
 // The local heat transfer coefficient of refrigerant of enthalpy h [J/kg] (the law the cell means
-// integrate; used for the wall temperature at a coil's ends).
-template <class R>
-R local_alpha(const ProfileOptions& o, const R& h, const R& h_l, const R& h_v) {
+// integrate; used for the wall temperature at a coil's ends); k: the two-phase factor.
+template <class R, class K>
+R local_alpha(const ProfileOptions& o, const R& h, const R& h_l, const R& h_v, const K& k) {
   using std::exp;
   if (value_of(h) > value_of(h_v)) {
-    const double line = line_alpha(o, true);
+    const K line = k * line_alpha(o, true);
     return o.alpha_vapour + (line - o.alpha_vapour) * exp(-(h - h_v) / o.blend_h);
   }
   if (value_of(h) < value_of(h_l)) {
-    const double line = line_alpha(o, false);
+    const K line = k * line_alpha(o, false);
     return o.alpha_liquid + (line - o.alpha_liquid) * exp(-(h_l - h) / o.blend_h);
   }
-  if (!o.quadrature) return R(o.alpha_two_phase);
-  return profile_detail::two_phase_alpha(o, R((h - h_l) / (h_v - h_l)));
+  if (!o.quadrature) return R(k * o.alpha_two_phase);
+  return k * profile_detail::two_phase_alpha(o, R((h - h_l) / (h_v - h_l)));
 }
 
-// The means over one cell's profile. g_air: the cell's air-side conductance [W/K] (scalar of the
-// model; it carries fouling).
+// The means over one cell's profile; `k` the model-scalar closures (G is R or its base scalar).
 template <class R, class G>
-CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptions& o) {
+CellMeans<R> cell_means(const CellEnds<R>& c, const CellScalars<G>& k, const ProfileOptions& o) {
+  const G& g_air = k.g_air;
   using namespace profile_detail;
   using std::log;
   using std::sqrt;
@@ -262,10 +272,10 @@ CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptio
     const R D1 = D(T1), D2 = D(T2);
     const R a = log(D2 / D1);
     const R inv_dE = 1.0 / (D1 * rel_expm1(a));  // integral of 1/D over t
-    const double tp = line_alpha(o, side > 0.0);
+    const G tp = k.alpha_factor * line_alpha(o, side > 0.0);
     if (!o.quadrature) {
-      const R alpha = alpha_1 + (tp - alpha_1) * mean_decay(R(side * (h1 - h_line)),
-                                                            R(side * (h2 - h_line)), o.blend_h);
+      const R alpha = alpha_1 + R(tp - alpha_1) * mean_decay(R(side * (h1 - h_line)),
+                                                             R(side * (h2 - h_line)), o.blend_h);
       const R inv_u = 1.0 / series_conductance(alpha, o.area, g_air);
       const R b = log(v2 / v1);
       using std::exp;
@@ -289,7 +299,7 @@ CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptio
       const R h = h1 + (h2 - h1) * t;
       const R T = T1 + (T2 - T1) * t;
       const R v = v1 + (v2 - v1) * t;
-      const R alpha = alpha_1 + (tp - alpha_1) * exp(-side * (h - h_line) / o.blend_h);
+      const R alpha = alpha_1 + R(tp - alpha_1) * exp(-side * (h - h_line) / o.blend_h);
       const R w = kGaussWeights[j] * inv_dE / series_conductance(alpha, o.area, g_air);
       p.g += w;
       p.rho += w / v;
@@ -306,30 +316,31 @@ CellMeans<R> cell_means(const CellEnds<R>& c, const G& g_air, const ProfileOptio
     const R rho_l = 1.0 / c.v_l, rho_v = 1.0 / c.v_v;
     const R inv_d = 1.0 / D(c.T_sat);
     if (!o.quadrature) {
-      const double e = o.void_fraction == VoidFraction::kHomogeneous ? 1.0 : 2.0 / 3.0;
+      const G e = o.void_fraction == VoidFraction::kHomogeneous ? G(1.0) : k.void_exponent;
       using std::exp;
-      const R cc = exp(e * log(c.v_l / c.v_v));  // (rho_v / rho_l)^e
+      const R cc = exp(R(e) * log(c.v_l / c.v_v));  // (rho_v / rho_l)^e
       const R bb = 1.0 - cc;
       const R u1 = cc + bb * x1, u2 = cc + bb * x2;
       const R mean_void = (1.0 - cc / (u1 * rel_expm1(R(log(u2 / u1))))) / bb;
       // Mean of x alpha_void: x alpha = (x - c alpha) / b.
       const R mean_x = 0.5 * (x1 + x2);
       const R mean_x_void = (mean_x - cc * mean_void) / bb;
-      const R inv_u = 1.0 / series_conductance(R(o.alpha_two_phase), o.area, g_air);
+      const G alpha_tp = k.alpha_factor * o.alpha_two_phase;
+      const R inv_u = 1.0 / series_conductance(R(alpha_tp), o.area, g_air);
       p.g = inv_u * inv_d;
       p.rho = p.g * (rho_l - (rho_l - rho_v) * mean_void);
       p.rho_h = p.g * (rho_l * (c.h_l + hfg * mean_x) -
                        (rho_l - rho_v) * (c.h_l * mean_void + hfg * mean_x_void));
-      p.alpha = o.alpha_two_phase * p.g;
+      p.alpha = alpha_tp * p.g;
       p.alpha_T = p.alpha * c.T_sat;
       return p;
     }
     const R ratio = rho_v / rho_l;
     for (std::size_t j = 0; j < kGaussNodes.size(); ++j) {
       const R x = x1 + (x2 - x1) * kGaussNodes[j];
-      const R alpha = two_phase_alpha(o, x);
+      const R alpha = k.alpha_factor * two_phase_alpha(o, x);
       const R w = kGaussWeights[j] * inv_d / series_conductance(alpha, o.area, g_air);
-      const R av = void_fraction(o.void_fraction, x, ratio);
+      const R av = void_fraction(o.void_fraction, x, ratio, k.void_exponent);
       const R rho = rho_l - (rho_l - rho_v) * av;
       p.g += w;
       p.rho += w * rho;

@@ -95,24 +95,27 @@ struct Coil {
   ProfileOptions profile;  // area = the whole coil
   double g_air;            // W/K, the whole coil's air side
   double t_air;            // K
+  double htc_factor;       // on the two-phase heat transfer coefficient
+  double void_exponent;    // of the slip-ratio void fraction
 };
 
 struct CoilResult {
   double h_out, mass, heat, tw_in, tw_out;
 };
 
-double local_density(const ProfileOptions& o, double p, double h) {
+double local_density(const ProfileOptions& o, double exponent, double p, double h) {
   const auto sat = r32::sat_props(p);
   if (h > sat.h_v || h < sat.h_l) return r32::ph_props(p, h).rho;
   const double x = (h - sat.h_l) / (sat.h_v - sat.h_l);
-  const double a = profile_detail::void_fraction(o.void_fraction, x, sat.rho_v / sat.rho_l);
+  const double a =
+      profile_detail::void_fraction(o.void_fraction, x, sat.rho_v / sat.rho_l, exponent);
   return sat.rho_l - (sat.rho_l - sat.rho_v) * a;
 }
 
 // The wall in local balance with the refrigerant at (p, h) and the air.
 double local_wall(const Coil& c, double p, double h) {
   const auto sat = r32::sat_props(p);
-  const double a = local_alpha(c.profile, h, sat.h_l, sat.h_v) * c.profile.area;
+  const double a = local_alpha(c.profile, h, sat.h_l, sat.h_v, c.htc_factor) * c.profile.area;
   const double t = r32::ph_props(p, h).T;
   return (a * t + c.g_air * c.t_air) / (a + c.g_air) - kKelvin;
 }
@@ -122,7 +125,7 @@ CoilResult integrate(const Coil& c, double p_in, double dp, double h_in, double 
   const auto slope = [&](double s, double h) {
     const double p = p_in - dp * s;
     const auto sat = r32::sat_props(p);
-    const double a = local_alpha(c.profile, h, sat.h_l, sat.h_v) * c.profile.area;
+    const double a = local_alpha(c.profile, h, sat.h_l, sat.h_v, c.htc_factor) * c.profile.area;
     const double u = a * c.g_air / (a + c.g_air);
     return u * (c.t_air - r32::ph_props(p, h).T) / mdot;
   };
@@ -135,9 +138,9 @@ CoilResult integrate(const Coil& c, double p_in, double dp, double h_in, double 
     const double h_next = h + ds / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
     const double h_mid = h + 0.5 * ds * k2;  // the RK4 midpoint estimate
     mass += ds / 6.0 *
-            (local_density(c.profile, p_in - dp * s, h) +
-             4.0 * local_density(c.profile, p_in - dp * (s + 0.5 * ds), h_mid) +
-             local_density(c.profile, p_in - dp * (s + ds), h_next));
+            (local_density(c.profile, c.void_exponent, p_in - dp * s, h) +
+             4.0 * local_density(c.profile, c.void_exponent, p_in - dp * (s + 0.5 * ds), h_mid) +
+             local_density(c.profile, c.void_exponent, p_in - dp * (s + ds), h_next));
     h = h_next;
   }
   return {h, mass * c.coil.volume, mdot * (h - h_in), local_wall(c, p_in, h_in),
@@ -154,9 +157,10 @@ SteadyAnswer continuous_steady(const plant::ParameterMap& params, const Operatin
   // The closures of a whole coil (one cell's area is the coil's).
   const auto coil = [&](const CoilParams& cp, bool condenser, double t_air) {
     const AirSide air = air_side(cp, 1.0, P.fan_ua_exponent, 1);
-    const double fouling = condenser ? P.fouling : 1.0;
+    const double ua = P.factor[condenser ? kCondUa : kEvapUa];
     return Coil{cp, plant::HeatPumpR32::profile_options(P, condenser, 1),
-                air.capacity_rate * (1.0 - std::exp(-air.ntu * fouling)), t_air + kKelvin};
+                air.capacity_rate * (1.0 - std::exp(-air.ntu * ua)), t_air + kKelvin,
+                P.factor[condenser ? kCondHtc : kEvapHtc], P.factor[kVoidExponent]};
   };
   const Coil cond = coil(P.cond, true, op.t_out), evap = coil(P.evap, false, op.t_zone);
 
@@ -167,13 +171,16 @@ SteadyAnswer continuous_steady(const plant::ParameterMap& params, const Operatin
   const auto evaluate = [&](const std::array<double, 3>& z) {
     const double pc = z[0], pe = z[1], h_suc = z[2];
     const auto suc = r32::smooth_ph(pe, h_suc, P.smoothing_width);
-    const auto comp = compressor(P, pe, suc.rho, h_suc, pc, op.speed);
+    auto comp = compressor(P, pe, suc.rho, h_suc, pc, op.speed);
+    comp.mdot *= P.factor[kCompFlow];
+    comp.h_dis = h_suc + (comp.h_dis - h_suc) / P.factor[kCompWork];
     const double flow = comp.mdot / P.nominal_mass_flow;
-    const double drop = std::pow(flow, P.dp_exponent);
+    const double drop = P.factor[kFriction] * std::pow(flow, P.dp_exponent);
     const double dpc = P.cond.dp_nominal * drop, dpe = P.evap.dp_nominal * drop;
     const CoilResult c = integrate(cond, pc, dpc, comp.h_dis, comp.mdot, steps);
     const auto ll = r32::smooth_ph(pc - dpc, c.h_out, P.smoothing_width);
-    const double mv = valve_flow(P, op.valve, ll.rho, (pc - dpc) - (pe + dpe));
+    const double mv =
+        P.factor[kValve] * valve_flow(P, op.valve, ll.rho, (pc - dpc) - (pe + dpe));
     const CoilResult e = integrate(evap, pe + dpe, dpe, c.h_out, comp.mdot, steps);
     const double dl = r32::smooth_ph(pc, comp.h_dis, P.smoothing_width).rho;
     const double mass = c.mass + e.mass + P.discharge_line_volume * dl +

@@ -40,4 +40,28 @@ struct SqrtSensor : RandomWalk {
   }
 };
 
+// A measured quantity and an unknown offset: x' = 0 for both, y = x + b; b is a consider state
+// (StateInfo::consider) unless `estimate_offset`.
+struct OffsetSensor {
+  bool estimate_offset = false;
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l;
+    l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
+    l.states.push_back(plant::StateInfo{
+        .name = "b", .unit = "1", .abs_tol = 1e-10, .consider = !estimate_offset});
+    l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
+    f[0] = f[1] = S(0.0);
+    return plant::kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0] + x[1];
+    return plant::kModelOk;
+  }
+};
+
 }  // namespace hvac_twin::test

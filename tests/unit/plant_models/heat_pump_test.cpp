@@ -17,9 +17,19 @@ namespace r32 = hvac_twin::plant::r32;
 using hvac_twin::test::HeatPumpRig;
 using hvac_twin::test::nominal_inputs;
 
-TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasible states",
-          "[heat_pump]") {
-  const HeatPumpRig rig;
+namespace {
+
+// The largest error of the AD Jacobians of f and h against central differences, each entry
+// relative to the largest entry of its row (the columns' scales differ by orders of magnitude),
+// at `points` random operating points, each run towards its steady state and perturbed
+// `perturbations` times (enthalpies +-2 kJ/kg, temperatures +-0.5 K, the high-side mass +-0.4 %,
+// factors +-0.1).
+struct JacobianErrors {
+  double f = 0.0, h = 0.0;
+  int states = 0;
+};
+
+JacobianErrors jacobian_errors(const HeatPumpRig& rig, int points, int perturbations) {
   const auto& m = *rig.model;
   const std::size_t n = m.num_states(), no = m.num_outputs();
   std::mt19937 rng(11);
@@ -31,20 +41,20 @@ TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasibl
                : m.layout().states[i].unit == "kg"  ? 0.1
                : m.layout().states[i].unit == "W"   ? 100.0
                                                     : 10.0;
-  double worst_f = 0.0, worst_h = 0.0;
-  int states = 0;
-  for (int op = 0; op < 10; ++op) {
-    // A random operating point, run towards its steady state...
+  JacobianErrors worst;
+  for (int op = 0; op < points; ++op) {
     const std::vector<double> u{30.0 + 50.0 * U(rng), 0.30 + 0.08 * U(rng), 0.6 + 0.5 * U(rng),
                                 0.6 + 0.5 * U(rng), 22.0 + 20.0 * U(rng)};
     auto x = rig.start(u[kOutdoorTemperature], 22.0 + 8.0 * U(rng), 0.45 + 0.1 * U(rng));
     rig.run(x, u, 300.0 + 600.0 * U(rng));
-    for (int j = 0; j < 10; ++j, ++states) {
-      // ... and 10 perturbations of it.
+    for (int j = 0; j < perturbations; ++j, ++worst.states) {
       auto xp = x;
       for (std::size_t i = 0; i < n; ++i) {
         const auto& s = m.layout().states[i];
-        const double scale = s.unit == "kJ/kg" ? 2.0 : s.unit == "degC" ? 0.5 : 0.0;
+        const double scale = s.unit == "kJ/kg"              ? 2.0
+                             : s.unit == "degC"             ? 0.5
+                             : s.augmented && s.unit == "1" ? 0.1
+                                                            : 0.0;
         xp[i] += scale * (2.0 * U(rng) - 1.0);
       }
       xp[1] *= 1.0 + 0.004 * (2.0 * U(rng) - 1.0);  // M_cond
@@ -60,31 +70,48 @@ TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasibl
             REQUIRE(m.outputs(xs, u, out) == 0);
           },
           xp, no, floor);
-      // Error of each entry relative to the largest entry of its row (the scales of the
-      // columns differ by orders of magnitude).
       const auto rel = [&](const std::vector<double>& a, const std::vector<double>& b,
                            std::size_t rows) {
-        double worst = 0.0;
+        double w = 0.0;
         for (std::size_t r = 0; r < rows; ++r) {
           double row_max = 0.0;
           for (std::size_t c = 0; c < n; ++c)
             row_max = std::max(row_max, std::abs(b[c * rows + r]));
           if (row_max == 0.0) continue;
           for (std::size_t c = 0; c < n; ++c)
-            worst = std::max(worst, std::abs(a[c * rows + r] - b[c * rows + r]) / row_max);
+            w = std::max(w, std::abs(a[c * rows + r] - b[c * rows + r]) / row_max);
         }
-        return worst;
+        return w;
       };
-      worst_f = std::max(worst_f, rel(jac, fd_f, n));
-      worst_h = std::max(worst_h, rel(hjac, fd_h, no));
+      worst.f = std::max(worst.f, rel(jac, fd_f, n));
+      worst.h = std::max(worst.h, rel(hjac, fd_h, no));
     }
   }
-  INFO("states: " << states << "; largest relative error, f: " << worst_f << ", h: " << worst_h);
-  CHECK(states == 100);
-  CHECK(worst_f < 1e-6);
-  CHECK(worst_h < 1e-6);
-  WARN("heat pump Jacobian vs finite differences at 100 states: f " << worst_f << ", h "
-                                                                    << worst_h);
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("heat pump AD Jacobians equal finite differences at 100 random feasible states",
+          "[heat_pump]") {
+  const JacobianErrors e = jacobian_errors(HeatPumpRig{}, 10, 10);
+  INFO("states: " << e.states << "; largest relative error, f: " << e.f << ", h: " << e.h);
+  CHECK(e.states == 100);
+  CHECK(e.f < 1e-6);
+  CHECK(e.h < 1e-6);
+  WARN("heat pump Jacobian vs finite differences at 100 states: f " << e.f << ", h " << e.h);
+}
+
+TEST_CASE("with every uncertain parameter a state, the Jacobians are exact too", "[heat_pump]") {
+  plant::ParameterMap p;
+  for (const auto& f : factor_info())
+    p[std::string("augment_") + f.name] = 1;
+  const HeatPumpRig rig(p);
+  REQUIRE(rig.model->num_states() == 50 + kNumFactors - 1);  // fouling was one of the 50
+  const JacobianErrors e = jacobian_errors(rig, 4, 5);
+  INFO("largest relative error, f: " << e.f << ", h: " << e.h);
+  CHECK(e.f < 1e-6);
+  CHECK(e.h < 1e-6);
 }
 
 namespace {
@@ -108,11 +135,11 @@ double inventory(const HeatPumpRig& rig, const std::vector<double>& x,
     const auto o = plant::HeatPumpR32::profile_options(P, condenser, n);
     CellEnds<double> ends;
     REQUIRE(cell_ends(p, 1e3 * h_in_kj, 1e3 * h_out_kj, t_air + 273.15, o.line_blend, ends));
-    return cell_means(ends, g_air, o).rho;
+    return cell_means(ends, CellScalars<double>{g_air, 1.0, P.factor[kVoidExponent]}, o).rho;
   };
   const AirSide ac = air_side(P.cond, u[kOutdoorFan], P.fan_ua_exponent, n);
   const AirSide ae = air_side(P.evap, u[kIndoorFan], P.fan_ua_exponent, n);
-  const double fouling = L.fouling != kNone ? x[L.fouling] : P.fouling;
+  const double fouling = L.fouling != kNone ? x[L.fouling] : P.factor[kCondUa];
   const double g_c = ac.capacity_rate * (1.0 - std::exp(-ac.ntu * fouling));
   const double g_e = ae.capacity_rate * (1.0 - std::exp(-ae.ntu));
   const double pc = y[kDischargePressure], pc_out = y[kCondenserOutletPressure];

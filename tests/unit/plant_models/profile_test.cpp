@@ -117,7 +117,7 @@ CellMeans<double> brute(const CellEnds<double>& c, const ProfileOptions& o,
       if (two_phase) {
         const double x = (h - c.h_l) / (c.h_v - c.h_l);
         const double rl = 1.0 / c.v_l, rv = 1.0 / c.v_v;
-        r = rl - (rl - rv) * profile_detail::void_fraction(o.void_fraction, x, rv / rl);
+        r = rl - (rl - rv) * profile_detail::void_fraction(o.void_fraction, x, rv / rl, 2.0 / 3.0);
       }
       double a_here = a_mean, u_here = u;
       if (alpha_per_node && !two_phase) {
@@ -189,14 +189,14 @@ TEST_CASE("closed-form cell means equal a brute-force integration of the same pr
       ProfileOptions o = condenser();
       o.void_fraction = v;
       const auto c = ends(p, k.h_in, k.h_out, t_out);
-      check_close(cell_means(c, kG, o), brute(c, o), 1e-6);
+      check_close(cell_means(c, CellScalars<double>{kG}, o), brute(c, o), 1e-6);
     }
   }
   // The evaporator: two-phase into superheated vapour near the air temperature.
   const double pe = 0.98e6;
   const auto se = r32::sat_props(pe);
   const auto c = ends(pe, se.h_v - 40e3, se.h_v + 12e3, 300.15);
-  check_close(cell_means(c, kG, evaporator()), brute(c, evaporator()), 1e-6);
+  check_close(cell_means(c, CellScalars<double>{kG}, evaporator()), brute(c, evaporator()), 1e-6);
 }
 
 TEST_CASE("the quadrature path integrates the profile with alpha varying along it", "[profile]") {
@@ -211,7 +211,7 @@ TEST_CASE("the quadrature path integrates the profile with alpha varying along i
     const auto c = ends(p, h_in, h_out, 308.15);
     // Four Gauss nodes per piece (alpha varying within a piece, as the truth's closures make it)
     // against the same profile integrated by brute force.
-    check_close(cell_means(c, kG, quad), brute(c, closed, true), 2e-3);
+    check_close(cell_means(c, CellScalars<double>{kG}, quad), brute(c, closed, true), 2e-3);
   }
 }
 
@@ -222,7 +222,7 @@ TEST_CASE("the cell means and their slopes are continuous as an end crosses a sa
   const ProfileOptions o = condenser();
   // The means and their slope in the moving end, that end at line -+ delta.
   const auto at = [&](double h_in, double h_out, bool move_outlet) {
-    return cell_means(ends_t(p, h_in, h_out, 308.15, !move_outlet), kG, o);
+    return cell_means(ends_t(p, h_in, h_out, 308.15, !move_outlet), CellScalars<double>{kG}, o);
   };
   struct Crossing {
     const char* name;
@@ -257,7 +257,7 @@ TEST_CASE("the cell means' partials equal central differences", "[profile]") {
   const ProfileOptions o = condenser();
   using T = Tangent<4, double>;
   const auto means = [&](double p, double h_in, double h_out, double t_air) {
-    return cell_means(ends(p, h_in, h_out, t_air), kG, o);
+    return cell_means(ends(p, h_in, h_out, t_air), CellScalars<double>{kG}, o);
   };
   // Away from the lines (as here) each piece ends at an end's own state or at a line.
   const auto seeded = [&](double p, double h_in, double h_out, double t_air) {
@@ -293,7 +293,7 @@ TEST_CASE("the cell means' partials equal central differences", "[profile]") {
     c.h_v = with(s.h_v, {{0, s.dh_v_dp}});
     c.v_l = with(1.0 / s.rho_l, {{0, -s.drho_l_dp / (s.rho_l * s.rho_l)}});
     c.v_v = with(1.0 / s.rho_v, {{0, -s.drho_v_dp / (s.rho_v * s.rho_v)}});
-    return cell_means(c, kG, o);
+    return cell_means(c, CellScalars<double>{kG}, o);
   };
   const double p = 2.9e6;
   const auto s = r32::sat_props(p);

@@ -1,0 +1,70 @@
+// Consider states (Schmidt-Kalman): no update moves them, their uncertainty is carried into
+// every estimate they affect, and the covariance is the exact one of that suboptimal gain.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "daemon/estimation/ekf.hpp"
+#include "daemon/estimation/enkf.hpp"
+#include "plant_models/core/ad_model.hpp"
+#include "test_models.hpp"
+
+using namespace hvac_twin;
+
+namespace {
+
+// Prior x ~ N(0, px), b ~ N(0, pb) independent; one measurement y = x + b + v, v ~ N(0, r).
+constexpr double px = 4.0, pb = 1.0, r = 0.25, z = 3.0;
+
+std::vector<est::MeasurementReport> one_update(est::Estimator& f, double value) {
+  std::vector<est::Measurement> m{{0, value, r, true}};
+  std::vector<est::MeasurementReport> reports(1);
+  f.update(m, {}, reports);
+  return reports;
+}
+
+}  // namespace
+
+TEST_CASE("an EKF update leaves a consider state and its variance where they were, exactly",
+          "[consider][ekf]") {
+  const plant::AdModel<test::OffsetSensor> model(test::OffsetSensor{});
+  est::Ekf ekf(model, std::vector<double>{0.0, 0.0}, 1, est::EkfOptions{});
+  REQUIRE(ekf.considered(1));
+  REQUIRE_FALSE(ekf.considered(0));
+  ekf.reset(std::vector<double>{0.0, 0.0}, std::vector<double>{std::sqrt(px), std::sqrt(pb)});
+  one_update(ekf, z);
+  // Schmidt: k_x = px / s with s = px + pb + r, k_b = 0; Joseph form with that gain.
+  const double s = px + pb + r, k = px / s;
+  CHECK(ekf.state()(0) == Approx(k * z));
+  CHECK(ekf.state()(1) == 0.0);
+  const auto& P = ekf.covariance();
+  CHECK(P(0, 0) == Approx((1 - k) * (1 - k) * px + k * k * (pb + r)));
+  CHECK(P(0, 1) == Approx(-k * pb));
+  CHECK(P(1, 1) == Approx(pb));
+  // The published sigma of y = x + b carries b's uncertainty.
+  std::vector<double> y(1), sigma(1);
+  REQUIRE(ekf.output_estimates({}, y, sigma) == plant::kModelOk);
+  CHECK(sigma[0] * sigma[0] == Approx(P(0, 0) + 2 * P(0, 1) + P(1, 1)));
+  // Estimated instead, the same update moves b and shrinks its variance.
+  ekf.set_consider(1, false);
+  ekf.reset(std::vector<double>{0.0, 0.0}, std::vector<double>{std::sqrt(px), std::sqrt(pb)});
+  one_update(ekf, z);
+  CHECK(ekf.state()(1) == Approx(pb / s * z));
+  CHECK(ekf.covariance()(1, 1) < pb);
+}
+
+TEST_CASE("an EnKF update leaves a consider state's members where they were", "[consider][enkf]") {
+  const plant::AdModel<test::OffsetSensor> model(test::OffsetSensor{});
+  est::EnkfOptions o;
+  o.members = 64;
+  o.threads = 1;
+  o.constrained = false;
+  est::ConstrainedEnkf enkf(model, std::vector<double>{0.0, 0.0}, 1, o);
+  REQUIRE(enkf.considered(1));
+  enkf.reset(std::vector<double>{0.0, 0.0}, std::vector<double>{std::sqrt(px), std::sqrt(pb)});
+  const Eigen::MatrixXd before = enkf.members();
+  one_update(enkf, z);
+  CHECK(enkf.members().row(1) == before.row(1));
+  CHECK((enkf.members().row(0) - before.row(0)).norm() > 0.0);
+}
