@@ -21,7 +21,13 @@
 // Derivatives and AD: evaluation is a template on the scalar type S (double or Dual<K>). With
 // S = Dual<K>, every output carries the exact derivative of the interpolant with respect to the
 // seeds of p and h, including the partial-derivative outputs (whose tangents are second
-// derivatives of the interpolant), consistent with the values.
+// derivatives of the interpolant), consistent with the values. Dual<K> inputs take the fused
+// path (r32_table_jet.hpp): the table is evaluated once in double with first and second partial
+// derivatives in (p, h), and each output's K tangents are built from them by the chain rule;
+// the results equal the operation-by-operation evaluation in Dual<K> (ph_by_operations, kept as
+// the reference for tests, and the path of any other scalar type) to rounding. Only where a
+// rounding difference moves a point across a table cell border (the interpolant is C1, its
+// second derivatives jump there) can the tangents of the partial-derivative outputs differ.
 //
 // Errors: no exceptions, no allocation. p outside [kPmin, kPmax] or h outside
 // [h_min(p), h_max(p)] returns Status::kOutOfRange (> 0, recoverable) with the result evaluated
@@ -37,6 +43,7 @@
 #include <cstddef>
 
 #include "plant_models/core/dual.hpp"
+#include "plant_models/refrigerant/r32_table_jet.hpp"
 #include "plant_models/refrigerant/status.hpp"
 
 namespace hvac_twin::plant::r32 {
@@ -195,6 +202,15 @@ class PhTable {
   template <class S>
   SatState<S> sat_p(const S& p) const;
 
+  // The same three, every operation differentiated by its own rule (for S = Dual<K>, what the
+  // functions above did before the fused path; the reference the tests compare it with).
+  template <class S>
+  PhState<S> ph_by_operations(const S& p, const S& h) const;
+  template <class S>
+  PhState<S> ph_in_by_operations(const S& p, const S& h, Region region) const;
+  template <class S>
+  SatState<S> sat_p_by_operations(const S& p) const;
+
   // Enthalpy limits of the tables at p [J/kg] (clamped to the pressure range).
   double h_min(double p) const;
   double h_max(double p) const;
@@ -229,6 +245,42 @@ class PhTable {
   void eval_region(const Located<S>& at, const table_detail::Basis<S>& A, const S& h, const S& hl,
                    const S& hl_e, const S& hv, const S& hv_e, Region region, PhState<S>& out) const;
 
+  // The fused path (r32_table_jet.cpp, r32_table_fused.hpp): outputs as Jets in (p, h) at the
+  // point evaluated (the clamped one). p_fixed: p was clamped into range (its tangents do not
+  // propagate); h_fixed: h was replaced by a boundary curve of p, of slope dh_dp (h's tangents
+  // are then dh_dp times p's); empty: nothing evaluated.
+  struct JetPh {
+    Status status = Status::kOk;
+    Region region = Region::kLiquid;
+    bool p_fixed = false, h_fixed = false, empty = false;
+    double dh_dp = 0.0;
+    table_detail::Jet T, rho, quality, h_l, h_v;
+  };
+  struct JetSat {
+    Status status = Status::kOk;
+    bool p_fixed = false, empty = false;
+    table_detail::Jet T, h_l, h_v, rho_l, rho_v;
+  };
+  struct JetAt {  // Located, for the fused path
+    Status status = Status::kOk;
+    bool p_fixed = false;
+    int i = 0;
+    double de = 1.0;
+    table_detail::Jet a;
+  };
+  JetAt locate_jet(double p) const;
+  table_detail::Jet curve_jet(const table_detail::Curve& c, const JetAt& at,
+                              const table_detail::Basis2& A) const;
+  void single_jet(const table_detail::Node* nodes, const double* xi_nodes, int nx, const JetAt& at,
+                  const table_detail::Basis2& A, const table_detail::Jet& h,
+                  const table_detail::Jet& lo, const table_detail::Jet& hi, JetPh& out) const;
+  void region_jet(const JetAt& at, const table_detail::Basis2& A, const table_detail::Jet& h,
+                  const table_detail::Jet& hl, const table_detail::Jet& hv, Region region,
+                  JetPh& out) const;
+  JetPh ph_jet(double p, double h) const;
+  JetPh ph_in_jet(double p, double h, Region region) const;
+  JetSat sat_p_jet(double p) const;
+
   Status build_status_ = Status::kNotConverged;
   std::array<double, table_detail::kNp> eta_{};  // ln p at the pressure nodes
   std::array<double, table_detail::kNxL> xi_l_{};
@@ -254,3 +306,4 @@ SatState<S> sat_props(const S& p) {
 }  // namespace hvac_twin::plant::r32
 
 #include "plant_models/refrigerant/r32_table_eval.hpp"
+#include "plant_models/refrigerant/r32_table_fused.hpp"

@@ -103,7 +103,7 @@ void PhTable::eval_region(const Located<S>& at, const table_detail::Basis<S>& A,
 }
 
 template <class S>
-PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
+PhState<S> PhTable::ph_by_operations(const S& p_in, const S& h_in) const {
   using table_detail::curve_at;
   PhState<S> out;
   const Located<S> at = locate(p_in);
@@ -143,7 +143,7 @@ PhState<S> PhTable::ph(const S& p_in, const S& h_in) const {
 }
 
 template <class S>
-PhState<S> PhTable::ph_in(const S& p_in, const S& h, Region region) const {
+PhState<S> PhTable::ph_in_by_operations(const S& p_in, const S& h, Region region) const {
   using table_detail::curve_at;
   PhState<S> out;
   const Located<S> at = locate(p_in);
@@ -162,7 +162,7 @@ PhState<S> PhTable::ph_in(const S& p_in, const S& h, Region region) const {
 }
 
 template <class S>
-SatState<S> PhTable::sat_p(const S& p_in) const {
+SatState<S> PhTable::sat_p_by_operations(const S& p_in) const {
   using std::exp;
   using table_detail::curve_at;
   SatState<S> out;
