@@ -12,7 +12,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "plant_models/core/direct_sensitivity_solver.hpp"
 #include "plant_models/core/eigen_dense_solver.hpp"
+#include "plant_models/core/jacobian_cache.hpp"
 
 namespace hvac_twin::plant {
 
@@ -25,12 +27,14 @@ struct Integrator::Sundials {
   SUNLinearSolver ls = nullptr;
   N_Vector* yS = nullptr;         // sensitivities, one vector per initial-state component
   N_Vector* abs_tol_S = nullptr;  // their absolute tolerances
+  SUNNonlinearSolver sens_solver = nullptr;  // kDirect: ours, freed after CVODES
   int ns = 0;
 
   ~Sundials() {
     if (abs_tol_S != nullptr) N_VDestroyVectorArray(abs_tol_S, ns);
     if (yS != nullptr) N_VDestroyVectorArray(yS, ns);
     if (cvode != nullptr) CVodeFree(&cvode);
+    if (sens_solver != nullptr) SUNNonlinSolFree(sens_solver);
     if (ls != nullptr) SUNLinSolFree(ls);
     if (jac != nullptr) SUNMatDestroy(jac);
     if (abs_tol != nullptr) N_VDestroy(abs_tol);
@@ -55,9 +59,11 @@ struct IntegratorCallbacks {
   static int jacobian(realtype /*t*/, N_Vector y, N_Vector /*fy*/, SUNMatrix jac, void* user_data,
                       N_Vector, N_Vector, N_Vector) {
     Integrator& it = self(user_data);
-    const std::size_t n = it.n_;
-    return it.model_.rhs_jacobian(view(y), it.u_, {},
-                                  {SUNDenseMatrix_Data(jac), n * n});  // column-major, ld = n
+    const double* J = nullptr;
+    const int status = it.jacobians_->get(view(y), it.u_, &J);
+    if (status != kModelOk) return status;
+    std::memcpy(SUNDenseMatrix_Data(jac), J, it.n_ * it.n_ * sizeof(double));  // ld = n
+    return 0;
   }
 
   // ySdot_j = J(y) yS_j: the variational equation of the initial-value problem.
@@ -65,10 +71,11 @@ struct IntegratorCallbacks {
                              N_Vector* ySdot, void* user_data, N_Vector, N_Vector) {
     Integrator& it = self(user_data);
     const auto n = static_cast<Eigen::Index>(it.n_);
-    const int status = it.model_.rhs_jacobian(view(y), it.u_, {}, {it.jac_.get(), it.n_ * it.n_});
+    const double* jac = nullptr;
+    const int status = it.jacobians_->get(view(y), it.u_, &jac);
     if (status != kModelOk) return status;
     // One matrix product for all sensitivities: gather S, multiply, scatter.
-    const Eigen::Map<const Eigen::MatrixXd> J(it.jac_.get(), n, n);
+    const Eigen::Map<const Eigen::MatrixXd> J(jac, n, n);
     Eigen::Map<Eigen::MatrixXd> S(it.sens_.get(), n, ns), Sdot(it.sens_dot_.get(), n, ns);
     for (int j = 0; j < ns; ++j)
       S.col(j) = Eigen::Map<const Eigen::VectorXd>(N_VGetArrayPointer(yS[j]), n);
@@ -76,6 +83,12 @@ struct IntegratorCallbacks {
     for (int j = 0; j < ns; ++j)
       Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(ySdot[j]), n) = Sdot.col(j);
     return 0;
+  }
+
+  // J at a step's converged state, for the direct sensitivity solver.
+  static int step_jacobian(void* owner, std::span<const double> y, const double** J) {
+    Integrator& it = self(owner);
+    return it.jacobians_->get(y, it.u_, J);
   }
 
   static void error_handler(int /*code*/, const char* module, const char* function, char* msg,
@@ -104,7 +117,7 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
       options_(options),
       n_(model.num_states()),
       s_(std::make_unique<Sundials>()),
-      jac_(new double[n_ * n_]()),
+      jacobians_(std::make_unique<JacobianCache>(model, n_)),
       sens_(new double[n_ * n_]()),
       sens_dot_(new double[n_ * n_]()) {
   if (n_ == 0) throw std::invalid_argument("integrator: model has no states");
@@ -133,6 +146,8 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
 
   if (options_.sensitivities) {
     s.ns = static_cast<int>(n_);
+    const double sens_tol =
+        options_.sensitivity_rel_tol > 0.0 ? options_.sensitivity_rel_tol : options_.rel_tol;
     // Fused vector operations: CVODES then updates all sensitivity vectors in one call per
     // operation instead of one call per vector.
     check(N_VEnableFusedOps_Serial(s.y, SUNTRUE), "fused vector operations");
@@ -143,13 +158,20 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
       const double scale_j = atol[j] / options_.rel_tol;  // resolution scale of x0_j
       double* a = N_VGetArrayPointer(s.abs_tol_S[j]);
       for (std::size_t i = 0; i < n_; ++i)
-        a[i] = atol[i] / scale_j;
+        a[i] = sens_tol / options_.rel_tol * atol[i] / scale_j;
     }
     check(CVodeSensInit(s.cvode, s.ns, CV_STAGGERED, &IntegratorCallbacks::sensitivity_rhs, s.yS),
           "CVodeSensInit");
-    check(CVodeSensSVtolerances(s.cvode, options_.rel_tol, s.abs_tol_S), "sens tolerances");
+    check(CVodeSensSVtolerances(s.cvode, sens_tol, s.abs_tol_S), "sens tolerances");
     check(CVodeSetSensErrCon(s.cvode, options_.sensitivity_error_control ? SUNTRUE : SUNFALSE),
           "CVodeSetSensErrCon");
+    if (options_.sensitivity_method == SensitivityMethod::kDirect) {
+      s.sens_solver = check_ptr(
+          make_direct_sensitivity_solver(s.ctx, n, s.ns, options_.sensitivity_error_control,
+                                         &IntegratorCallbacks::step_jacobian, this),
+          "direct sensitivity solver");
+      check(CVodeSetNonlinearSolverSensStg(s.cvode, s.sens_solver), "sensitivity solver");
+    }
   }
 }
 
@@ -160,6 +182,9 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   Sundials& s = *s_;
   last_error_[0] = '\0';
   u_ = u;
+  jacobians_->invalidate();  // u (and the model's own state) may have changed since the last call
+  const long jacobians0 = jacobians_->evaluations(), reuses0 = jacobians_->hits();
+  const long solves0 = direct_sensitivity_solves(s.sens_solver);
   double* y = N_VGetArrayPointer(s.y);
   std::memcpy(y, x.data(), n_ * sizeof(double));
   IntegrationResult result;
@@ -182,6 +207,9 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   CVodeGetNumErrTestFails(s.cvode, &stats_.error_test_failures);
   CVodeGetNumNonlinSolvConvFails(s.cvode, &stats_.nonlinear_failures);
   if (options_.sensitivities) CVodeGetSensNumRhsEvals(s.cvode, &stats_.sens_rhs_evals);
+  stats_.sens_solves = direct_sensitivity_solves(s.sens_solver) - solves0;
+  stats_.model_jacobians = jacobians_->evaluations() - jacobians0;
+  stats_.jacobian_reuses = jacobians_->hits() - reuses0;
   if (result.flag < 0) return result;
 
   if (options_.sensitivities && !F.empty()) {

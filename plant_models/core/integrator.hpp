@@ -1,8 +1,20 @@
 // x_{k+1} = f(x_k, u_k) and F_k = dx_{k+1}/dx_k for a ContinuousModel, by SUNDIALS CVODES:
 // variable-order BDF with a dense Newton solver fed the model's exact (AD) Jacobian, and, when
 // asked, forward sensitivities with respect to the initial state (yS_j(0) = e_j, staggered
-// corrector, sensitivity right-hand side J(x(t)) yS_j from the same AD Jacobian). F is therefore
-// the state-transition matrix of the ODE to integrator tolerance, not a finite difference.
+// corrector). F is the derivative of the integrator's own solution, not a finite difference;
+// it is the state-transition matrix of the ODE to the integrator's tolerance when F is under error
+// control (sensitivity_error_control), and otherwise as accurate as the steps the state needs
+// make it (see there).
+//
+// Sensitivities (SensitivityMethod): by default each accepted step's sensitivity system
+// (I - gamma J(x_n)) S_n = (CVODES's predicted history) is solved exactly and for all n columns
+// at once, with one Jacobian at the step's state and one LU factorisation
+// (direct_sensitivity_solver.hpp): F is the derivative of CVODES's own BDF steps, at about one
+// Jacobian per step. kCvodesNewton keeps CVODES's own corrector (per-column Newton iterations with
+// the state's lagged iteration matrix, a Jacobian-times-S right-hand side per iteration), the
+// reference the default is checked against. Either way the model Jacobian is evaluated at most
+// once per distinct state (jacobian_cache.hpp): CVODES's Newton matrix, the sensitivity
+// right-hand side and the direct solve share it.
 //
 // Created once per unit (allocates all solver memory; throws std::runtime_error if SUNDIALS
 // cannot be set up). step() re-initialises the solver and never allocates or throws.
@@ -18,6 +30,14 @@
 
 namespace hvac_twin::plant {
 
+class JacobianCache;
+
+// How step() computes F (see above).
+enum class SensitivityMethod {
+  kDirect,        // exact per-step solve, all columns at once (default)
+  kCvodesNewton,  // CVODES's staggered Newton corrector, column by column (reference)
+};
+
 struct IntegratorOptions {
   double rel_tol = 1e-6;
   // Absolute tolerance of state i is abs_tol_scale * layout().states[i].abs_tol.
@@ -26,19 +46,29 @@ struct IntegratorOptions {
   double max_step_s = 0.0;     // largest internal step [s]; 0 = unlimited
   bool sensitivities = false;  // compute F in step()
   // Include sensitivities in the local error test. Off (the default), F rides on the steps the
-  // state's own accuracy needs, with the staggered sensitivity corrector converged on each; on,
-  // F meets the tolerances itself, at the price of many more steps for stiff models (on the
-  // heat pump: 184 instead of 14 steps per 10 s, 240 ms instead of 28 ms). Absolute tolerance of
-  // dx_i/dx0_j is abs_tol_i / (abs_tol_j / rel_tol): a perturbation of x0_j at its resolution
-  // scale must move x_i by no more than x_i's own tolerance.
+  // state's own accuracy needs, solved exactly on each; on, F meets the tolerances itself, at the
+  // price of more steps. Absolute tolerance of dx_i/dx0_j is abs_tol_i / (abs_tol_j / rel_tol):
+  // a perturbation of x0_j at its resolution scale must move x_i by no more than x_i's own
+  // tolerance. Measured on the heat pump (N = 10, 5 s from a settled state, error of D^-1 F D
+  // against a tight reference, D the states' resolution scales): off, 3 steps and 26 % (the state
+  // at rest takes steps far longer than F's modes); on, 144 steps and 2e-7; on with
+  // sensitivity_rel_tol 1e-2, 36 steps and 2e-3. On transients the state's steps resolve F too
+  // (off: 1e-4 to 1e-3).
   bool sensitivity_error_control = false;
+  // Relative tolerance of F under sensitivity_error_control (0: rel_tol); the absolute ones scale
+  // with it (abs_tol_i / (abs_tol_j / rel_tol) * sensitivity_rel_tol / rel_tol).
+  double sensitivity_rel_tol = 0.0;
+  SensitivityMethod sensitivity_method = SensitivityMethod::kDirect;
 };
 
 struct IntegrationStats {
   long steps = 0;
   long rhs_evals = 0;
   long jac_evals = 0;
-  long sens_rhs_evals = 0;
+  long sens_rhs_evals = 0;   // CVODES sensitivity right-hand sides (J S products)
+  long sens_solves = 0;      // direct sensitivity solves (kDirect: one per accepted step)
+  long model_jacobians = 0;  // model Jacobians evaluated (each distinct state once)
+  long jacobian_reuses = 0;  // Jacobian requests served from the one already evaluated
   long error_test_failures = 0;
   long nonlinear_failures = 0;
 };
@@ -76,7 +106,7 @@ class Integrator {
   std::size_t n_;
   std::unique_ptr<Sundials> s_;
   std::span<const double> u_;                  // inputs during the current step
-  std::unique_ptr<double[]> jac_;              // n x n scratch for the sensitivity right-hand side
+  std::unique_ptr<JacobianCache> jacobians_;   // J at the last state asked for
   std::unique_ptr<double[]> sens_, sens_dot_;  // n x n: sensitivities gathered, and J S
   IntegrationStats stats_;
   std::array<char, 256> last_error_{};

@@ -1,0 +1,33 @@
+#include "plant_models/core/jacobian_cache.hpp"
+
+#include <cstring>
+
+namespace hvac_twin::plant {
+
+JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
+    : model_(model), n_(n), x_(new double[n]()), jac_(new double[n * n]()) {}
+
+bool JacobianCache::holds(std::span<const double> x) const {
+  // Bitwise: the same state, not merely an equal one (0.0 and -0.0 count as different, which
+  // only costs an evaluation).
+  return valid_ && x.size() == n_ && std::memcmp(x.data(), x_.get(), n_ * sizeof(double)) == 0;
+}
+
+int JacobianCache::get(std::span<const double> x, std::span<const double> u, const double** J) {
+  if (holds(x)) {
+    ++hits_;
+    *J = jac_.get();
+    return kModelOk;
+  }
+  valid_ = false;
+  *J = nullptr;
+  ++evaluations_;
+  const int status = model_.rhs_jacobian(x, u, {}, {jac_.get(), n_ * n_});
+  if (status != kModelOk) return status;
+  std::memcpy(x_.get(), x.data(), n_ * sizeof(double));
+  valid_ = true;
+  *J = jac_.get();
+  return kModelOk;
+}
+
+}  // namespace hvac_twin::plant

@@ -1,0 +1,405 @@
+// The race in one run (issue 13, item 5): on the recorded heat-pump scenario of the estimation
+// benchmark, every period, from the constrained EKF's prior and with the period's inputs, this
+// times in the same process
+//   - the constrained-EKF step (predict with F, then the constrained update), and its predict;
+//   - the integrator with F (forward sensitivities), by the default method and, where the build
+//     has it, by CVODES's own Newton corrector (the method before issue 13);
+//   - the plain simulation of the period with the same integrator and tolerance;
+//   - a finite-difference F: n + 1 plain integrations, forward differences with steps of
+//     sqrt(rel_tol) times each state's scale (the way a script or FMU path gets F);
+//   - one model Jacobian and one right-hand side at the prior;
+// and prints medians, p99 and ratios. It also measures F's error against a tight reference
+// (CVODES's Newton corrector with sensitivity error control, rel_tol 1e-10, absolute tolerances
+// 1e-4 of the model's) on transients (the period of each speed step and each valve step, the
+// period after the update that moved the state most) and at steady state (the filter model
+// settled for an hour at the first period's inputs), and on every --every'th period.
+//
+// F's error is measured on the dimensionless matrix D^-1 F D, D = diag(abs_tol_i / rel_tol) (each
+// state in units of its resolution scale, the scale the integrator's own tolerances use):
+// relative Frobenius norm, and the largest entry error relative to the largest entry of its
+// column in the reference.
+//
+//   race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]
+//
+// --sens-tol R puts F under sensitivity error control at relative tolerance R (the EKF's and the
+// F paths' integrators; the reference is unchanged).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "daemon/estimation/ekf.hpp"
+#include "plant_models/catalog.hpp"
+#include "plant_models/heat_pump/hp_layout.hpp"
+#include "tests/bench/heat_pump_scenario.hpp"
+
+using namespace hvac_twin;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double last = static_cast<double>(v.size() - 1);
+  return v[static_cast<std::size_t>(std::min(last, p * static_cast<double>(v.size())))];
+}
+
+// CVODES's own corrector, where the build has a choice (before issue 13 it was the only one).
+template <class O>
+bool use_cvodes_newton(O& o) {
+  if constexpr (requires { o.sensitivity_method; }) {
+    o.sensitivity_method = std::remove_cvref_t<decltype(o.sensitivity_method)>::kCvodesNewton;
+    return true;
+  } else {
+    return false;
+  }
+}
+template <class S>
+long model_jacobians(const S& s) {
+  if constexpr (requires { s.model_jacobians; }) {
+    return s.model_jacobians;
+  } else {
+    return -1;
+  }
+}
+
+// --sens-tol: F under sensitivity error control at this relative tolerance (0: off).
+double g_sens_tol = 0.0;
+
+template <class O>
+void set_sensitivity_tolerance(O& o) {
+  if (g_sens_tol <= 0.0) return;
+  o.sensitivity_error_control = true;
+  if constexpr (requires { o.sensitivity_rel_tol; }) o.sensitivity_rel_tol = g_sens_tol;
+}
+
+plant::IntegratorOptions with_f(bool cvodes_newton) {
+  plant::IntegratorOptions o;
+  o.sensitivities = true;
+  if (cvodes_newton) use_cvodes_newton(o);
+  set_sensitivity_tolerance(o);
+  return o;
+}
+
+struct FError {
+  double frobenius = 0.0, max_column = 0.0;
+};
+
+// Error of F against Fref (n x n, column-major) on D^-1 F D, D = diag(scale).
+FError f_error(const std::vector<double>& F, const std::vector<double>& Fref,
+               const std::vector<double>& scale) {
+  const std::size_t n = scale.size();
+  double num = 0.0, den = 0.0, worst = 0.0;
+  for (std::size_t c = 0; c < n; ++c) {
+    double col = 0.0, err = 0.0;
+    for (std::size_t r = 0; r < n; ++r) {
+      const double w = scale[c] / scale[r];
+      const double d = (F[c * n + r] - Fref[c * n + r]) * w, ref = Fref[c * n + r] * w;
+      num += d * d;
+      den += ref * ref;
+      col = std::max(col, std::abs(ref));
+      err = std::max(err, std::abs(d));
+    }
+    worst = std::max(worst, err / std::max(col, 1e-300));
+  }
+  return {std::sqrt(num / std::max(den, 1e-300)), worst};
+}
+
+// The F paths, their integrators and what they measured.
+struct Race {
+  const plant::ContinuousModel& model;
+  std::size_t n;
+  double period;
+  bool has_choice;  // the build offers a sensitivity method besides CVODES's Newton corrector
+  plant::Integrator direct, newton, plain, reference;
+  std::vector<double> scale, fd_step;
+  std::vector<double> x, F_direct, F_newton, F_fd, F_ref, base, xp;
+  std::vector<double> t_direct, t_newton, t_plain, t_fd, t_jac, t_rhs;
+  std::vector<double> steps, jacs_direct, jacs_newton;
+  long failures = 0;
+
+  Race(const plant::ContinuousModel& m, double dt)
+      : model(m),
+        n(m.num_states()),
+        period(dt),
+        has_choice(choice()),
+        direct(m, with_f(false)),
+        newton(m, with_f(true)),
+        plain(m, plant::IntegratorOptions{}),
+        reference(m, tight()),
+        x(n),
+        F_direct(n * n),
+        F_newton(n * n),
+        F_fd(n * n),
+        F_ref(n * n),
+        base(n),
+        xp(n) {
+    const plant::IntegratorOptions o;
+    for (const auto& s : m.layout().states) {
+      scale.push_back(s.abs_tol * o.abs_tol_scale / o.rel_tol);
+      fd_step.push_back(std::sqrt(o.rel_tol));
+    }
+  }
+
+  static bool choice() {
+    plant::IntegratorOptions o;
+    return use_cvodes_newton(o);
+  }
+
+  static plant::IntegratorOptions tight() {
+    plant::IntegratorOptions o = with_f(true);
+    o.rel_tol = 1e-10;
+    o.abs_tol_scale = 1e-4;
+    o.sensitivity_error_control = true;
+    return o;
+  }
+
+  bool run(plant::Integrator& integ, std::span<const double> x0, std::span<const double> u,
+           std::vector<double>& F, std::vector<double>* ms) {
+    std::copy(x0.begin(), x0.end(), x.begin());
+    const auto t0 = Clock::now();
+    const bool ok = integ.step(x, u, period, F).ok();
+    if (ms != nullptr) ms->push_back(ms_since(t0));
+    if (!ok) ++failures;
+    return ok;
+  }
+
+  // Times every path from x0 (and the model's Jacobian and right-hand side there).
+  void time(std::span<const double> x0, std::span<const double> u) {
+    run(plain, x0, u, F_fd, &t_plain);  // F unused: the plain integrator has no sensitivities
+    run(direct, x0, u, F_direct, &t_direct);
+    steps.push_back(static_cast<double>(direct.last_stats().steps));
+    jacs_direct.push_back(static_cast<double>(model_jacobians(direct.last_stats())));
+    run(newton, x0, u, F_newton, &t_newton);
+    jacs_newton.push_back(static_cast<double>(model_jacobians(newton.last_stats())));
+    // Finite differences: the base run and one run per perturbed state.
+    const auto t0 = Clock::now();
+    std::copy(x0.begin(), x0.end(), base.begin());
+    if (!plain.step(base, u, period, {}).ok()) ++failures;
+    for (std::size_t j = 0; j < n; ++j) {
+      std::copy(x0.begin(), x0.end(), xp.begin());
+      const double h = fd_step[j] * std::max(std::abs(x0[j]), scale[j]);
+      xp[j] += h;
+      if (!plain.step(xp, u, period, {}).ok()) ++failures;
+      for (std::size_t i = 0; i < n; ++i)
+        F_fd[j * n + i] = (xp[i] - base[i]) / h;
+    }
+    t_fd.push_back(ms_since(t0));
+    std::vector<double> f(n), J(n * n);
+    const auto t1 = Clock::now();
+    for (int k = 0; k < 3; ++k)
+      model.rhs_jacobian(x0, u, f, J);
+    t_jac.push_back(ms_since(t1) / 3.0);
+    const auto t2 = Clock::now();
+    for (int k = 0; k < 10; ++k)
+      model.rhs(x0, u, f);
+    t_rhs.push_back(ms_since(t2) / 10.0);
+  }
+
+  // Forgets the last `count` timings (a period timed only to compute its F).
+  void drop_last_timings(std::size_t count) {
+    for (auto* v : {&t_direct, &t_newton, &t_plain, &t_fd, &t_jac, &t_rhs, &steps, &jacs_direct,
+                    &jacs_newton})
+      v->resize(v->size() - std::min(count, v->size()));
+  }
+};
+
+struct Case {
+  std::string name;
+  FError direct, newton, fd, between;  // against the reference; direct against Newton
+};
+
+// F's errors against the reference from x0; race.time() must have run from x0 first.
+bool errors(Race& race, std::span<const double> x0, std::span<const double> u, Case& c) {
+  if (!race.run(race.reference, x0, u, race.F_ref, nullptr)) return false;
+  c.direct = f_error(race.F_direct, race.F_ref, race.scale);
+  c.newton = f_error(race.F_newton, race.F_ref, race.scale);
+  c.fd = f_error(race.F_fd, race.F_ref, race.scale);
+  c.between = f_error(race.F_direct, race.F_newton, race.scale);
+  return true;
+}
+
+void print_case(const Case& c, bool has_choice) {
+  char d[48] = "n/a", b[48] = "n/a";
+  if (has_choice) {
+    std::snprintf(d, sizeof d, "%.1e / %.1e", c.direct.frobenius, c.direct.max_column);
+    std::snprintf(b, sizeof b, "%.1e / %.1e", c.between.frobenius, c.between.max_column);
+  }
+  std::printf("  %-38s %19s %11.1e / %.1e %11.1e / %.1e %19s\n", c.name.c_str(), d,
+              c.newton.frobenius, c.newton.max_column, c.fd.frobenius, c.fd.max_column, b);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double hours = 3.0, period = 5.0;
+  int every = 12;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+    if (a == "--short") {
+      hours = 0.6;  // includes the first speed step (20 min) and valve step (30 min)
+      every = 24;
+    } else if (a == "--hours") {
+      hours = std::atof(next().c_str());
+    } else if (a == "--period") {
+      period = std::atof(next().c_str());
+    } else if (a == "--every") {
+      every = std::max(1, std::atoi(next().c_str()));
+    } else if (a == "--sens-tol") {
+      g_sens_tol = std::atof(next().c_str());
+    } else {
+      std::fprintf(
+          stderr,
+          "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n");
+      return 2;
+    }
+  }
+
+  bench::HeatPumpTruth truth;
+  const auto model = plant::create_model("heat_pump_r32", bench::filter_parameters());
+  const std::size_t n = model->num_states();
+  est::EkfOptions eo;
+  eo.constrained = true;
+  set_sensitivity_tolerance(eo.integrator);
+  est::Ekf ekf(*model, bench::layout_process_noise(*model), bench::kMeasured.size(), eo);
+  Race race(*model, period);
+  std::printf("race_bench: %.2f simulated hours, period %.0f s, filter model n = %zu states%s\n",
+              hours, period, n,
+              race.has_choice ? "" : " (this build has CVODES's Newton corrector only)");
+  std::fflush(stdout);
+
+  std::vector<est::MeasurementReport> reports(bench::kMeasured.size());
+  std::vector<double> t_step, t_predict, t_update, xprior(n), xpred(n), u0;
+  std::vector<Case> cases;
+  Case worst{"worst of the periods checked", {}, {}, {}, {}},
+      moved{"after the largest update", {}, {}, {}, {}};
+  double largest_move = -1.0, last_move = 0.0;
+  int checked = 0;
+  const int periods = static_cast<int>(hours * 3600.0 / period);
+  for (int k = 0; k < periods; ++k) {
+    const double t = k * period;
+    std::vector<double>& u = truth.drive(t, period);
+    using namespace plant::hp;
+    u[kCompressorSpeed] = std::clamp(
+        u[kCompressorSpeed] + (static_cast<int>(t / 1200.0) % 2 ? 8.0 : -8.0), 20.0, 90.0);
+    u[kValveOpening] *= static_cast<int>(t / 1800.0) % 2 ? 1.05 : 0.95;
+    truth.advance(period);
+    if (k == 0) {
+      bench::start_filter(*model, ekf, u, truth.y_measured());
+      ekf.update(truth.measurements(), u, reports);
+      u0 = u;
+      continue;
+    }
+    std::copy(ekf.state().data(), ekf.state().data() + n, xprior.begin());
+    race.time(xprior, u);
+    const auto t0 = Clock::now();
+    ekf.predict(u, period);
+    const double tp = ms_since(t0);
+    std::copy(ekf.state().data(), ekf.state().data() + n, xpred.begin());
+    const auto t1 = Clock::now();
+    ekf.update(truth.measurements(), u, reports);
+    const double tu = ms_since(t1);
+    t_predict.push_back(tp);
+    t_update.push_back(tu);
+    t_step.push_back(tp + tu);
+
+    const bool speed_step = static_cast<int>(t / 1200.0) != static_cast<int>((t - period) / 1200.0);
+    const bool valve_step = static_cast<int>(t / 1800.0) != static_cast<int>((t - period) / 1800.0);
+    const bool after_big_move = last_move > largest_move;
+    if (speed_step || valve_step || after_big_move || k % every == 0) {
+      Case c{"", {}, {}, {}, {}};
+      if (errors(race, xprior, u, c)) {
+        ++checked;
+        const auto keep_worst = [](FError& w, const FError& e) {
+          w.frobenius = std::max(w.frobenius, e.frobenius);
+          w.max_column = std::max(w.max_column, e.max_column);
+        };
+        keep_worst(worst.direct, c.direct);
+        keep_worst(worst.newton, c.newton);
+        keep_worst(worst.fd, c.fd);
+        keep_worst(worst.between, c.between);
+        char name[64];
+        if (speed_step || valve_step) {
+          std::snprintf(name, sizeof name, "%s step, t = %.0f s", speed_step ? "speed" : "valve",
+                        t);
+          c.name = name;
+          cases.push_back(c);
+        }
+        if (after_big_move) {
+          largest_move = last_move;
+          std::snprintf(name, sizeof name, "after the largest update (t = %.0f s)", t);
+          moved = c;
+          moved.name = name;
+        }
+      }
+    }
+    // How far this update moved the state, in units of each state's resolution scale.
+    double move = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      move = std::max(
+          move, std::abs(ekf.state()(static_cast<Eigen::Index>(i)) - xpred[i]) / race.scale[i]);
+    last_move = move;
+  }
+
+  // Steady state: the filter model settled for an hour at the first period's inputs.
+  {
+    std::vector<double> xs(n);
+    model->initial_guess(u0, truth.y_measured(), xs);
+    plant::Integrator settle(*model, plant::IntegratorOptions{});
+    settle.step(xs, u0, 3600.0, {});
+    race.time(xs, u0);
+    race.drop_last_timings(1);  // the loop's periods are the timing sample
+    Case c{"steady state (settled 1 h)", {}, {}, {}, {}};
+    if (errors(race, xs, u0, c)) cases.push_back(c);
+  }
+  cases.push_back(moved);
+  cases.push_back(worst);
+
+  const double plain = percentile(race.t_plain, 0.5);
+  const auto row = [&](const char* name, const std::vector<double>& v) {
+    if (v.empty()) return;
+    const double med = percentile(v, 0.5);
+    std::printf("  %-44s %9.2f %9.2f %9.1f x\n", name, med, percentile(v, 0.99), med / plain);
+  };
+  std::printf(
+      "\ntimes over %zu periods [ms]                      median       p99  median / plain\n",
+      race.t_plain.size());
+  row("constrained-EKF step (predict + update)", t_step);
+  row("  its predict (integrator with F, P = F P F' + Q)", t_predict);
+  if (race.has_choice) row("integrator with F, direct (default)", race.t_direct);
+  row("integrator with F, CVODES Newton corrector", race.t_newton);
+  row("plain simulation of the period", race.t_plain);
+  row("finite-difference F (n + 1 plain integrations)", race.t_fd);
+  std::printf("  %-44s %9.3f %9.3f %9.1f x one RHS (%.4f ms)\n", "model Jacobian (AD)",
+              percentile(race.t_jac, 0.5), percentile(race.t_jac, 0.99),
+              percentile(race.t_jac, 0.5) / percentile(race.t_rhs, 0.5),
+              percentile(race.t_rhs, 0.5));
+  std::printf("  finite-difference F / constrained-EKF step: %.1f x\n",
+              percentile(race.t_fd, 0.5) / percentile(t_step, 0.5));
+  std::printf(
+      "per period (median): %.0f BDF steps; model Jacobians: direct %.0f, CVODES Newton %.0f\n",
+      percentile(race.steps, 0.5), percentile(race.jacs_direct, 0.5),
+      percentile(race.jacs_newton, 0.5));
+
+  std::printf(
+      "\nF error against the reference (%d periods checked; Frobenius / max entry rel. to "
+      "column)\n  %-38s %19s %21s %21s %19s\n",
+      checked, "case", "direct (default)", "CVODES Newton", "finite differences",
+      "direct vs Newton");
+  for (const auto& c : cases)
+    print_case(c, race.has_choice);
+  std::printf("integration failures: %ld\n", race.failures);
+  return race.failures == 0 ? 0 : 1;
+}
