@@ -19,6 +19,7 @@ struct UnitPublisher::Wire {
   hvac_twin_Observation observation{};
   hvac_twin_EstimatorHealth health{};
   hvac_twin_LeakDiagnostic leak{};
+  hvac_twin_EstimatorConsistency consistency{};
 
   dds_entity_t writer(Topic topic) const noexcept { return writers[static_cast<int>(topic)].get(); }
 };
@@ -43,7 +44,7 @@ std::string_view to_string(PublishStatus status) noexcept {
     case PublishStatus::kNonFinite:
       return "non-finite value refused";
     case PublishStatus::kInvalidValue:
-      return "negative uncertainty or duration refused";
+      return "negative uncertainty, duration or figure (or a share above 1) refused";
     case PublishStatus::kInvalidName:
       return "empty, too long or NUL-containing name refused";
     case PublishStatus::kInvalidUnit:
@@ -77,6 +78,8 @@ UnitPublisher::UnitPublisher(Participant& participant, std::string_view topic_pr
   (void)detail::copy_bounded(w.health.unit, unit, true);
   (void)detail::copy_bounded(w.leak.site, site, true);
   (void)detail::copy_bounded(w.leak.unit, unit, true);
+  (void)detail::copy_bounded(w.consistency.site, site, true);
+  (void)detail::copy_bounded(w.consistency.unit, unit, true);
 
   const QosPtr topic_qos = make_state_qos(kAnyPeriod);  // see make_state_qos
   const QosPtr writer_qos = make_state_qos(period);
@@ -228,6 +231,28 @@ PublishStatus UnitPublisher::publish(const LeakDiagnosticSample& s) noexcept {
   w.timestamp_ns = s.timestamp_ns;
   w.cycle = s.cycle;
   return write(wire_->writer(Topic::kLeakDiagnostic), &w, s.timestamp_ns);
+}
+
+PublishStatus UnitPublisher::publish(const ConsistencySample& s) noexcept {
+  const double values[] = {s.mean_nis, s.band_low, s.band_high, s.rejected_share};
+  for (const double v : values) {
+    if (!finite(v)) return reject(PublishStatus::kNonFinite);
+    if (v < 0.0) return reject(PublishStatus::kInvalidValue);
+  }
+  if (s.rejected_share > 1.0) return reject(PublishStatus::kInvalidValue);
+  if (s.timestamp_ns < 0) return reject(PublishStatus::kInvalidTimestamp);
+  hvac_twin_EstimatorConsistency& w = wire_->consistency;
+  if (!detail::copy_bounded(w.point, s.point, true)) return reject(PublishStatus::kInvalidName);
+  w.window_cycles = s.window_cycles;
+  w.samples = s.samples;
+  w.mean_nis = s.mean_nis;
+  w.band_low = s.band_low;
+  w.band_high = s.band_high;
+  w.verdict = detail::to_wire(s.verdict);
+  w.rejected_share = s.rejected_share;
+  w.timestamp_ns = s.timestamp_ns;
+  w.cycle = s.cycle;
+  return write(wire_->writer(Topic::kEstimatorConsistency), &w, s.timestamp_ns);
 }
 
 PublishStatus UnitPublisher::assert_liveliness() noexcept {

@@ -1,12 +1,12 @@
-// UnitPublisher: the DDS writers of one (site, unit). Creates the four state topics
+// UnitPublisher: the DDS writers of one (site, unit). Creates the five state topics
 // "<topic_prefix>/virtual_sensor", "<topic_prefix>/observation",
-// "<topic_prefix>/estimator_health" and "<topic_prefix>/leak_diagnostic" with the state QoS
-// (io/dds/qos.hpp) and one writer each.
+// "<topic_prefix>/estimator_health", "<topic_prefix>/leak_diagnostic" and
+// "<topic_prefix>/estimator_consistency" with the state QoS (io/dds/qos.hpp) and one writer each.
 //
 // Liveliness is MANUAL_BY_TOPIC: a writer is alive while it writes. The unit's cycle publishes
-// its virtual sensors, observations and health after every completed cycle; a topic with nothing
-// to write in a cycle is kept alive with assert_liveliness(). A hung or killed cycle then shows
-// as missed deadlines (2.5 x period) and lost liveliness (3 x period) at every reader.
+// its virtual sensors, observations, consistency and health after every completed cycle; a topic
+// with nothing to write in a cycle is kept alive with assert_liveliness(). A hung or killed cycle
+// then shows as missed deadlines (2.5 x period) and lost liveliness (3 x period) at every reader.
 // Checked with Cyclone DDS 0.10.2 (local and remote readers): assert_liveliness() extends the
 // lease of a writer that is alive, but once its liveliness was lost only a write revives it.
 // The deadline counts per instance, so a key that is alive but not updated still misses it.
@@ -34,6 +34,7 @@ enum class PublishStatus : std::uint8_t {
   kOk = 0,
   kNonFinite,         // a double was NaN or infinite: not published (design: NaN never published)
   kInvalidValue,      // sigma, innovation_variance, test_ratio or a cycle time was negative
+                      // (or a consistency figure negative, its rejected_share above 1)
   kInvalidName,       // name/point empty, longer than kMaxNameLength or containing NUL
   kInvalidUnit,       // eng_unit longer than kMaxEngUnitLength or containing NUL
   kInvalidTimestamp,  // timestamp_ns negative
@@ -75,6 +76,7 @@ class UnitPublisher {
   // Also fills the wire field publish_rejections from stats().rejected().
   PublishStatus publish(const HealthSample& sample) noexcept;
   PublishStatus publish(const LeakDiagnosticSample& sample) noexcept;
+  PublishStatus publish(const ConsistencySample& sample) noexcept;
   // Asserts liveliness of all its writers without writing (a cycle with nothing to publish on
   // a topic). Does not revive a writer whose liveliness was already lost: write a sample for
   // that. Returns kDdsError if Cyclone refuses. Cycle thread only.

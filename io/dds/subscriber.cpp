@@ -21,6 +21,8 @@ bool TopicSet::contains(Topic topic) const noexcept {
       return estimator_health;
     case Topic::kLeakDiagnostic:
       return leak_diagnostic;
+    case Topic::kEstimatorConsistency:
+      return estimator_consistency;
   }
   return false;
 }
@@ -113,6 +115,24 @@ LeakDiagnosticRecord convert(const hvac_twin_LeakDiagnostic& w, dds_time_t sourc
   r.suspect_since_ns = w.suspect_since_ns;
   r.leak_since_ns = w.leak_since_ns;
   r.quality = detail::from_wire(w.quality);
+  r.timestamp_ns = w.timestamp_ns;
+  r.cycle = w.cycle;
+  r.source_timestamp_ns = source_ts;
+  return r;
+}
+
+ConsistencyRecord convert(const hvac_twin_EstimatorConsistency& w, dds_time_t source_ts) {
+  ConsistencyRecord r;
+  r.site = detail::view_bounded(w.site);
+  r.unit = detail::view_bounded(w.unit);
+  r.point = detail::view_bounded(w.point);
+  r.window_cycles = w.window_cycles;
+  r.samples = w.samples;
+  r.mean_nis = w.mean_nis;
+  r.band_low = w.band_low;
+  r.band_high = w.band_high;
+  r.verdict = detail::from_wire(w.verdict);
+  r.rejected_share = w.rejected_share;
   r.timestamp_ns = w.timestamp_ns;
   r.cycle = w.cycle;
   r.source_timestamp_ns = source_ts;
@@ -214,6 +234,9 @@ std::ptrdiff_t Subscriber::take(std::vector<Record>& out) {
         break;
       case Topic::kLeakDiagnostic:
         n = take_all<hvac_twin_LeakDiagnostic>(reader, out, last_error_);
+        break;
+      case Topic::kEstimatorConsistency:
+        n = take_all<hvac_twin_EstimatorConsistency>(reader, out, last_error_);
         break;
     }
     if (n < 0) return -1;

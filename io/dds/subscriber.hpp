@@ -77,8 +77,22 @@ struct LeakDiagnosticRecord : LeakDiagnosticSample {
   std::int64_t source_timestamp_ns = 0;
 };
 
-using Record =
-    std::variant<VirtualSensorRecord, ObservationRecord, HealthRecord, LeakDiagnosticRecord>;
+struct ConsistencyRecord {
+  std::string site, unit, point;  // point: a measured point's name, or kAllPoints
+  std::uint32_t window_cycles = 0;
+  std::uint32_t samples = 0;
+  double mean_nis = 0.0;
+  double band_low = 0.0;
+  double band_high = 0.0;
+  ConsistencyVerdict verdict = ConsistencyVerdict::kInsufficientData;
+  double rejected_share = 0.0;
+  std::int64_t timestamp_ns = 0;
+  std::uint64_t cycle = 0;
+  std::int64_t source_timestamp_ns = 0;
+};
+
+using Record = std::variant<VirtualSensorRecord, ObservationRecord, HealthRecord,
+                            LeakDiagnosticRecord, ConsistencyRecord>;
 
 // Which topics to read.
 struct TopicSet {
@@ -86,6 +100,7 @@ struct TopicSet {
   bool observation = true;
   bool estimator_health = true;
   bool leak_diagnostic = true;
+  bool estimator_consistency = true;
   bool contains(Topic topic) const noexcept;
 };
 

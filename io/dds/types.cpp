@@ -14,6 +14,8 @@ std::string_view topic_suffix(Topic topic) noexcept {
       return "estimator_health";
     case Topic::kLeakDiagnostic:
       return "leak_diagnostic";
+    case Topic::kEstimatorConsistency:
+      return "estimator_consistency";
   }
   return "unknown";
 }
@@ -90,6 +92,20 @@ std::string_view to_string(LeakHold hold) noexcept {
       return "CYCLING";
     case LeakHold::kDegraded:
       return "DEGRADED";
+  }
+  return "UNKNOWN";
+}
+
+std::string_view to_string(ConsistencyVerdict verdict) noexcept {
+  switch (verdict) {
+    case ConsistencyVerdict::kInsufficientData:
+      return "INSUFFICIENT_DATA";
+    case ConsistencyVerdict::kInBand:
+      return "IN_BAND";
+    case ConsistencyVerdict::kHigh:
+      return "HIGH";
+    case ConsistencyVerdict::kLow:
+      return "LOW";
   }
   return "UNKNOWN";
 }

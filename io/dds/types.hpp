@@ -16,18 +16,21 @@
 
 namespace hvac_twin::dds {
 
-// The four topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
+// The five topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
 // "hvac_twin/virtual_sensor" ('/' is legal in Cyclone DDS 0.10 topic names).
 enum class Topic : std::uint8_t {
   kVirtualSensor = 0,
   kObservation = 1,
   kEstimatorHealth = 2,
   kLeakDiagnostic = 3,
+  kEstimatorConsistency = 4,
 };
 inline constexpr Topic kAllTopics[] = {Topic::kVirtualSensor, Topic::kObservation,
-                                       Topic::kEstimatorHealth, Topic::kLeakDiagnostic};
+                                       Topic::kEstimatorHealth, Topic::kLeakDiagnostic,
+                                       Topic::kEstimatorConsistency};
 inline constexpr std::size_t kNumTopics = std::size(kAllTopics);
-// "virtual_sensor", "observation", "estimator_health", "leak_diagnostic". Never allocates.
+// "virtual_sensor", "observation", "estimator_health", "leak_diagnostic",
+// "estimator_consistency". Never allocates.
 std::string_view topic_suffix(Topic topic) noexcept;
 // "<prefix>/<suffix>". Throws std::invalid_argument unless prefix matches [A-Za-z0-9_]+ (the
 // DdsConfig::topic_prefix rule). Allocates; creation time only.
@@ -145,6 +148,33 @@ struct LeakDiagnosticSample {
   std::uint64_t cycle = 0;
 };
 
+// Verdict of the consistency monitor. Values match IDL ConsistencyVerdict.
+enum class ConsistencyVerdict : std::uint8_t {
+  kInsufficientData = 0,
+  kInBand = 1,
+  kHigh = 2,  // sigmas too small
+  kLow = 3,   // sigmas too large
+};
+
+// EstimatorConsistency.point of the figure pooled over all measured points. Point names are
+// [A-Za-z0-9_]+ (configuration), so it is never a point's.
+inline constexpr std::string_view kAllPoints = "*";
+
+// The consistency of the publisher's unit's filter over a window, for one measured point or all
+// (kAllPoints). Doubles finite and >= 0, rejected_share <= 1.
+struct ConsistencySample {
+  std::string_view point;           // key; 1..64 bytes, no NUL; a point name or kAllPoints
+  std::uint32_t window_cycles = 0;  // the window [cycles]
+  std::uint32_t samples = 0;        // NIS samples in the window
+  double mean_nis = 0.0;            // [-], 0 without samples
+  double band_low = 0.0;            // chi2_0.025(samples) / samples [-]
+  double band_high = 0.0;           // chi2_0.975(samples) / samples [-]
+  ConsistencyVerdict verdict = ConsistencyVerdict::kInsufficientData;
+  double rejected_share = 0.0;    // [0, 1]
+  std::int64_t timestamp_ns = 0;  // CLOCK_REALTIME [ns], >= 0
+  std::uint64_t cycle = 0;
+};
+
 // Names used on the console and in JSON: the IDL enumerator without its prefix ("GOOD",
 // "NOT_READY", "COMM_FAIL", ...).
 // Out-of-range values (e.g. from a newer peer) give "UNKNOWN". Never allocates.
@@ -152,6 +182,8 @@ std::string_view to_string(EstimateQuality quality) noexcept;
 std::string_view to_string(PointQuality quality) noexcept;
 std::string_view to_string(LeakState state) noexcept;  // "NORMAL", "SUSPECT", "LEAK"
 std::string_view to_string(LeakHold hold) noexcept;    // "NONE", "WARM_UP", "COMPRESSOR_OFF", ...
+// "INSUFFICIENT_DATA", "IN_BAND", "HIGH", "LOW".
+std::string_view to_string(ConsistencyVerdict verdict) noexcept;
 // Name of one kFlag* bit ("predict_only", ...), or "" if the bit is not defined.
 std::string_view flag_name(std::uint32_t single_bit) noexcept;
 

@@ -92,7 +92,7 @@ TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once
 
   const std::int64_t joined_ns = realtime_now_ns();
   dds::Participant participant(reader_config(56));
-  dds::Subscriber late(participant, "hvac_twin", dds::TopicSet{false, false, false, true},
+  dds::Subscriber late(participant, "hvac_twin", dds::TopicSet{false, false, false, true, false},
                        kWallPeriod);
   std::vector<dds::Record> got;
   // Transient-local, keep-last 1: the sample written before this reader existed is delivered

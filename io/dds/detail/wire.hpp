@@ -36,10 +36,16 @@ static_assert(static_cast<int>(LeakHold::kCompressorOff) == hvac_twin_LEAK_HOLD_
 static_assert(static_cast<int>(LeakHold::kStartUp) == hvac_twin_LEAK_HOLD_START_UP);
 static_assert(static_cast<int>(LeakHold::kCycling) == hvac_twin_LEAK_HOLD_CYCLING);
 static_assert(static_cast<int>(LeakHold::kDegraded) == hvac_twin_LEAK_HOLD_DEGRADED);
+static_assert(static_cast<int>(ConsistencyVerdict::kInsufficientData) ==
+              hvac_twin_CONSISTENCY_INSUFFICIENT_DATA);
+static_assert(static_cast<int>(ConsistencyVerdict::kInBand) == hvac_twin_CONSISTENCY_IN_BAND);
+static_assert(static_cast<int>(ConsistencyVerdict::kHigh) == hvac_twin_CONSISTENCY_HIGH);
+static_assert(static_cast<int>(ConsistencyVerdict::kLow) == hvac_twin_CONSISTENCY_LOW);
 // Bounded IDL strings are char[bound + 1]; the C++ limits must match the IDL bounds.
 static_assert(sizeof(hvac_twin_VirtualSensor::name) == kMaxNameLength + 1);
 static_assert(sizeof(hvac_twin_VirtualSensor::site) == kMaxNameLength + 1);
 static_assert(sizeof(hvac_twin_Observation::point) == kMaxNameLength + 1);
+static_assert(sizeof(hvac_twin_EstimatorConsistency::point) == kMaxNameLength + 1);
 static_assert(sizeof(hvac_twin_VirtualSensor::eng_unit) == kMaxEngUnitLength + 1);
 static_assert(sizeof(hvac_twin_EstimatorHealth::modbus_last_error) == kMaxErrorTextLength + 1);
 
@@ -95,6 +101,12 @@ inline hvac_twin_LeakState to_wire(LeakState s) noexcept {
 inline hvac_twin_LeakHold to_wire(LeakHold h) noexcept {
   return static_cast<hvac_twin_LeakHold>(h);
 }
+inline hvac_twin_ConsistencyVerdict to_wire(ConsistencyVerdict v) noexcept {
+  return static_cast<hvac_twin_ConsistencyVerdict>(v);
+}
+inline ConsistencyVerdict from_wire(hvac_twin_ConsistencyVerdict v) noexcept {
+  return static_cast<ConsistencyVerdict>(v);
+}
 inline LeakState from_wire(hvac_twin_LeakState s) noexcept {
   return static_cast<LeakState>(s);
 }
@@ -119,6 +131,8 @@ inline const dds_topic_descriptor_t* descriptor(Topic topic) noexcept {
       return &hvac_twin_EstimatorHealth_desc;
     case Topic::kLeakDiagnostic:
       return &hvac_twin_LeakDiagnostic_desc;
+    case Topic::kEstimatorConsistency:
+      return &hvac_twin_EstimatorConsistency_desc;
   }
   return nullptr;
 }

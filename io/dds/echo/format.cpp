@@ -110,6 +110,22 @@ Json to_json(const LeakDiagnosticRecord& r) {
               {"cycle", r.cycle}};
 }
 
+Json to_json(const ConsistencyRecord& r) {
+  return Json{{"topic", "estimator_consistency"},
+              {"site", r.site},
+              {"unit", r.unit},
+              {"point", r.point},
+              {"window_cycles", r.window_cycles},
+              {"samples", r.samples},
+              {"mean_nis", r.mean_nis},
+              {"band_low", r.band_low},
+              {"band_high", r.band_high},
+              {"verdict", to_string(r.verdict)},
+              {"rejected_share", r.rejected_share},
+              {"timestamp_ns", r.timestamp_ns},
+              {"cycle", r.cycle}};
+}
+
 // "HH:MM:SS" of a CLOCK_REALTIME timestamp in local time.
 std::string clock_time(std::int64_t timestamp_ns) {
   const std::time_t seconds = static_cast<std::time_t>(timestamp_ns / 1'000'000'000);
@@ -204,6 +220,18 @@ std::string to_text(const LeakDiagnosticRecord& r) {
       r.charge_cusum, r.threshold, std::string(to_string(r.quality)).c_str(),
       r.hold == LeakHold::kNone ? "" : "  held: ",
       r.hold == LeakHold::kNone ? "" : std::string(to_string(r.hold)).c_str());
+  return written(line, n);
+}
+
+std::string to_text(const ConsistencyRecord& r) {
+  char line[512];
+  const int n = std::snprintf(
+      line, sizeof line,
+      "%s %-8s nis %-28s mean %6.2f  band [%.2f, %.2f]  %5u samples / %u cycles  rejected "
+      "%4.1f %%  %s",
+      clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), r.point.c_str(), r.mean_nis, r.band_low,
+      r.band_high, static_cast<unsigned>(r.samples), static_cast<unsigned>(r.window_cycles),
+      100.0 * r.rejected_share, std::string(to_string(r.verdict)).c_str());
   return written(line, n);
 }
 

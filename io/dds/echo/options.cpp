@@ -22,7 +22,7 @@ T parse_number(std::string_view option, std::string_view text) {
 }
 
 TopicSet parse_topics(std::string_view list) {
-  TopicSet set{false, false, false, false};
+  TopicSet set{false, false, false, false, false};
   const auto select = [&set](Topic topic) {
     switch (topic) {
       case Topic::kVirtualSensor:
@@ -37,6 +37,9 @@ TopicSet parse_topics(std::string_view list) {
       case Topic::kLeakDiagnostic:
         set.leak_diagnostic = true;
         break;
+      case Topic::kEstimatorConsistency:
+        set.estimator_consistency = true;
+        break;
     }
   };
   while (!list.empty()) {
@@ -50,7 +53,8 @@ TopicSet parse_topics(std::string_view list) {
       set = TopicSet{};
     } else {
       throw UsageError("--topics: unknown topic '" + std::string(item) +
-                       "' (virtual_sensor, observation, estimator_health, leak_diagnostic, all)");
+                       "' (virtual_sensor, observation, estimator_health, leak_diagnostic, "
+                       "estimator_consistency, all)");
     }
     list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
   }
@@ -170,9 +174,9 @@ Options parse_options(int argc, const char* const* argv) {
 std::string usage_text() {
   return R"(Usage: hvac-twin-echo [OPTIONS]
 
-Prints every hvac-twin DDS sample (virtual sensors, observations, estimator health) as one
-line on stdout, flushed per line. A new subscriber first receives the latest sample of every
-key already published.
+Prints every hvac-twin DDS sample (virtual sensors, observations, estimator health, leak
+diagnosis, estimator consistency) as one line on stdout, flushed per line. A new subscriber
+first receives the latest sample of every key already published.
 
 Options:
   --domain N           DDS domain id, 0..232 (default 0)
@@ -180,9 +184,10 @@ Options:
   --peer ADDR          unicast discovery peer; repeatable (default 127.0.0.1)
   --multicast          allow multicast discovery (default: off, unicast to the peers)
   --topic-prefix P     topics are P/virtual_sensor, P/observation, P/estimator_health,
-                       P/leak_diagnostic (default hvac_twin)
+                       P/leak_diagnostic, P/estimator_consistency (default hvac_twin)
   --topics LIST        comma-separated subset of virtual_sensor, observation,
-                       estimator_health, leak_diagnostic (default all)
+                       estimator_health, leak_diagnostic, estimator_consistency
+                       (default all)
   --count N            exit after N samples
   --duration S         exit after S seconds
   --format json|text   json: one JSON object per sample with a "topic" field (default);

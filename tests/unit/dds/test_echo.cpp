@@ -202,6 +202,52 @@ TEST_CASE("echo formats the leak diagnostic: JSON every field, text the alarm an
   CHECK_FALSE(only_leak.topics.contains(Topic::kVirtualSensor));
 }
 
+TEST_CASE("echo formats the estimator consistency: JSON every field, text the verdict",
+          "[dds][echo]") {
+  ConsistencyRecord r;
+  r.site = "site";
+  r.unit = "hp1";
+  r.point = "suction_pressure";
+  r.window_cycles = 360;
+  r.samples = 358;
+  r.mean_nis = 3.25;
+  r.band_low = 0.856;
+  r.band_high = 1.152;
+  r.verdict = ConsistencyVerdict::kHigh;
+  r.rejected_share = 0.0625;
+  r.timestamp_ns = 1'700'000'405'000'000'000;
+  r.cycle = 12;
+  const json j = json::parse(echo::to_json_line(r));
+  CHECK(j.at("topic") == "estimator_consistency");
+  CHECK(j.at("site") == "site");
+  CHECK(j.at("unit") == "hp1");
+  CHECK(j.at("point") == "suction_pressure");
+  CHECK(j.at("window_cycles") == 360);
+  CHECK(j.at("samples") == 358);
+  CHECK(j.at("mean_nis").get<double>() == 3.25);
+  CHECK(j.at("band_low").get<double>() == 0.856);
+  CHECK(j.at("band_high").get<double>() == 1.152);
+  CHECK(j.at("verdict") == "HIGH");
+  CHECK(j.at("rejected_share").get<double>() == 0.0625);
+  CHECK(j.at("timestamp_ns").get<std::int64_t>() == r.timestamp_ns);
+  CHECK(j.at("cycle") == 12);
+  CHECK(j.size() == 13);  // every wire field plus "topic"
+
+  setenv("TZ", "UTC", 1);
+  tzset();
+  const std::string text = echo::to_text_line(r);
+  INFO(text);
+  CHECK(text.rfind("22:20:05 hp1      nis suction_pressure ", 0) == 0);
+  CHECK(text.find("mean   3.25  band [0.86, 1.15]") != std::string::npos);
+  CHECK(text.find("358 samples / 360 cycles  rejected  6.2 %  HIGH") != std::string::npos);
+
+  CHECK_THROWS_WITH(parse({"--topics", "consistency"}), Catch::Contains("estimator_consistency"));
+  const auto only = parse({"--topics", "estimator_consistency"});
+  CHECK(only.topics.contains(Topic::kEstimatorConsistency));
+  CHECK_FALSE(only.topics.contains(Topic::kEstimatorHealth));
+  CHECK(parse({}).topics.contains(Topic::kEstimatorConsistency));  // all by default
+}
+
 TEST_CASE("hvac-twin-echo prints every sample as a JSON line over loopback", "[dds][echo]") {
   const auto config = test::loopback_config(kDomainEchoJson);
   Participant participant(config);

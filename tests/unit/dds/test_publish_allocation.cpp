@@ -61,16 +61,21 @@ TEST_CASE("publish allocates nothing", "[dds][allocation]") {
   obs.point = "supply_air_temperature";
   HealthSample health;
   health.modbus_last_error = long_error;
+  ConsistencySample consistency;
+  consistency.point = "supply_air_temperature";
+  consistency.mean_nis = 1.02;
   VirtualSensorSample bad = vs;
   bad.name = too_long;
 
   const auto publish_all = [&](std::uint64_t cycle) {
-    vs.cycle = obs.cycle = health.cycle = cycle;
-    vs.timestamp_ns = obs.timestamp_ns = health.timestamp_ns = test::now_ns();
+    vs.cycle = obs.cycle = health.cycle = consistency.cycle = cycle;
+    vs.timestamp_ns = obs.timestamp_ns = health.timestamp_ns = consistency.timestamp_ns =
+        test::now_ns();
     vs.value = static_cast<double>(cycle);
     bool ok = publisher.publish(vs) == PublishStatus::kOk;
     ok = ok && publisher.publish(obs) == PublishStatus::kOk;
     ok = ok && publisher.publish(health) == PublishStatus::kOk;
+    ok = ok && publisher.publish(consistency) == PublishStatus::kOk;
     ok = ok && publisher.publish(bad) == PublishStatus::kInvalidName;
     ok = ok && publisher.assert_liveliness() == PublishStatus::kOk;
     return ok;

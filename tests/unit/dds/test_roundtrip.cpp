@@ -1,5 +1,6 @@
 // Every field of every sample type goes through a real Cyclone writer and reader unchanged.
 #include <algorithm>
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
@@ -16,6 +17,7 @@ namespace {
 constexpr int kDomainRoundTrip = 104;
 constexpr int kDomainTwoUnits = 111;
 constexpr int kDomainLeakRoundTrip = 117;
+constexpr int kDomainConsistencyRoundTrip = 120;
 }  // namespace
 
 TEST_CASE("every field of every sample type round-trips", "[dds][roundtrip]") {
@@ -168,7 +170,7 @@ TEST_CASE("two units publish side by side on one participant", "[dds][roundtrip]
   Participant participant(config);
   UnitPublisher hp1(participant, config.topic_prefix, "site", "hp1", 1s);
   UnitPublisher hp2(participant, config.topic_prefix, "site", "hp2", 1s);
-  Subscriber subscriber(participant, config.topic_prefix, {false, false, true});
+  Subscriber subscriber(participant, config.topic_prefix, {false, false, true, false, false});
 
   HealthSample health;
   health.timestamp_ns = test::now_ns();
@@ -290,4 +292,91 @@ TEST_CASE("the leak diagnostic and the fused-points provenance round-trip", "[dd
   bad.leak_since_ns = -1;
   CHECK(publisher.publish(bad) == PublishStatus::kInvalidTimestamp);
   CHECK(publisher.stats().rejected() == 5);
+}
+
+TEST_CASE("the estimator consistency round-trips, keyed by point, and is guarded",
+          "[dds][roundtrip]") {
+  const auto config = test::loopback_config(kDomainConsistencyRoundTrip);
+  Participant writer_side(config);
+  Participant reader_side(config);
+  UnitPublisher publisher(writer_side, config.topic_prefix, "site", "hp-1", 1s);
+  Subscriber subscriber(reader_side, config.topic_prefix,
+                        TopicSet{false, false, false, false, true}, 1s);
+  const std::int64_t t0 = test::now_ns();
+
+  ConsistencySample point;
+  point.point = "suction_pressure";
+  point.window_cycles = 360;
+  point.samples = 355;
+  point.mean_nis = 4.123456789;
+  point.band_low = 0.8567;
+  point.band_high = 1.1523;
+  point.verdict = ConsistencyVerdict::kHigh;
+  point.rejected_share = 0.125;
+  point.timestamp_ns = t0;
+  point.cycle = 4242;
+  ConsistencySample all = point;
+  all.point = kAllPoints;
+  all.samples = 4294967295u;  // the largest count the wire holds
+  all.verdict = ConsistencyVerdict::kInBand;
+  REQUIRE(publisher.publish(point) == PublishStatus::kOk);
+  REQUIRE(publisher.publish(all) == PublishStatus::kOk);
+
+  std::vector<Record> records;
+  REQUIRE(test::collect(subscriber, records, 2));
+  auto got = test::only<ConsistencyRecord>(records);
+  REQUIRE(got.size() == 2);
+  std::sort(got.begin(), got.end(), [](const auto& a, const auto& b) { return a.point < b.point; });
+  CHECK(got[0].point == "*");  // two keys, two instances
+  CHECK(got[0].samples == 4294967295u);
+  CHECK(got[0].verdict == ConsistencyVerdict::kInBand);
+  const ConsistencyRecord& c = got[1];
+  CHECK(c.site == "site");
+  CHECK(c.unit == "hp-1");
+  CHECK(c.point == "suction_pressure");
+  CHECK(c.window_cycles == 360);
+  CHECK(c.samples == 355);
+  CHECK(c.mean_nis == point.mean_nis);  // bit-exact
+  CHECK(c.band_low == point.band_low);
+  CHECK(c.band_high == point.band_high);
+  CHECK(c.verdict == ConsistencyVerdict::kHigh);
+  CHECK(c.rejected_share == 0.125);
+  CHECK(c.timestamp_ns == t0);
+  CHECK(c.source_timestamp_ns == t0);
+  CHECK(c.cycle == 4242);
+
+  // Every verdict survives the wire (keep-last 1: read each before the next).
+  for (int v = 0; v <= 3; ++v) {
+    point.verdict = static_cast<ConsistencyVerdict>(v);
+    REQUIRE(publisher.publish(point) == PublishStatus::kOk);
+    records.clear();
+    REQUIRE(test::collect(subscriber, records, 1));
+    const auto one = test::only<ConsistencyRecord>(records);
+    REQUIRE(one.size() == 1);
+    CHECK(one[0].verdict == point.verdict);
+    CHECK(to_string(one[0].verdict) ==
+          std::array{"INSUFFICIENT_DATA", "IN_BAND", "HIGH", "LOW"}[v]);
+  }
+
+  // The publisher's guard: nothing non-finite, negative, or a share above 1; a key that fits.
+  ConsistencySample bad = point;
+  bad.mean_nis = std::nan("");
+  CHECK(publisher.publish(bad) == PublishStatus::kNonFinite);
+  bad = point;
+  bad.band_high = std::numeric_limits<double>::infinity();
+  CHECK(publisher.publish(bad) == PublishStatus::kNonFinite);
+  bad = point;
+  bad.band_low = -0.1;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidValue);
+  bad = point;
+  bad.rejected_share = 1.5;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidValue);
+  bad = point;
+  bad.point = "";
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidName);
+  bad = point;
+  bad.timestamp_ns = -1;
+  CHECK(publisher.publish(bad) == PublishStatus::kInvalidTimestamp);
+  CHECK(publisher.stats().rejected() == 6);
+  CHECK(subscriber.wait_and_take(300ms, records) == 0);  // none of them reached the wire
 }
