@@ -106,6 +106,9 @@ struct EstimatorConfig {
                           // starts from its initial guess [s]
   int checkpoint_every_cycles = 60;  // the whole filter state is saved to state_directory every
                                      // this many cycles; 0: never (always a cold start)
+  // The consistency monitor's window (mean NIS against its chi-square band) [s, model time]:
+  // round(consistency_window_s / period_s) cycles, at least 30; that ratio at most 100000.
+  double consistency_window_s = 3600.0;
   LeakDetectionConfig leak_detection;
   // Per state, in the state's unit; a state not listed takes the model's StateInfo default
   // (process_noise, initial, initial_std). Names are states of the unit's model.

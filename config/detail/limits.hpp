@@ -19,5 +19,6 @@ inline constexpr double kMinTimeScale = 1e-3;        // runtime.time_scale: peri
 inline constexpr double kMaxTimeScale = 1e6;         //   stays below 1e8 s (int64 nanoseconds)
 inline constexpr double kMaxHangTimeoutS = 86400.0;  // runtime.hang_timeout_s
 inline constexpr int kMaxConsecutiveRejections = 1000000;
+inline constexpr long kMaxConsistencyWindowCycles = 100000;  // consistency_window_s / period_s
 
 }  // namespace hvac_twin::config::detail

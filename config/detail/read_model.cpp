@@ -165,6 +165,8 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.integer("ensemble_members", e.ensemble_members, 4, 1000);
   r.integer("threads", e.threads, 1, 64);
   r.integer("checkpoint_every_cycles", e.checkpoint_every_cycles, 0, 1'000'000);
+  const bool window_ok = r.number("consistency_window_s", e.consistency_window_s,
+                                  positive(30.0 * kMaxPeriodS), false, "s");
   read_leak_detection(r.get("leak_detection"), errors, e.leak_detection);
 
   const plant::ModelLayout* layout = context.layout;
@@ -243,6 +245,19 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
                      format_number(e.period_s) + " / " + format_number(*context.time_scale) +
                      " = " + format_number(wall_period) + " s");
     }
+  }
+  if (period_ok && window_ok &&
+      !(std::round(e.consistency_window_s / e.period_s) <=
+        static_cast<double>(kMaxConsistencyWindowCycles))) {
+    const Ref given = r.get("consistency_window_s");
+    const Ref at = given.present() ? given : r.ref();
+    errors.add(*at.node, at.pointer,
+               "consistency_window_s / period_s = " + format_number(e.consistency_window_s) +
+                   " / " + format_number(e.period_s) + " = " +
+                   format_number(std::round(e.consistency_window_s / e.period_s)) +
+                   " cycles; expected at most " + std::to_string(kMaxConsistencyWindowCycles) +
+                   " (the window is held in memory per measured point): shorten "
+                   "consistency_window_s or lengthen period_s");
   }
   if (deadline_ok && context.hang_timeout_s && !(e.deadline_s < *context.hang_timeout_s)) {
     const Ref at = r.get("deadline_s").present() ? r.get("deadline_s") : r.ref();

@@ -136,6 +136,7 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
     throw std::invalid_argument("at most 64 measured points per unit");
   filter_ = make_filter(*model_, unit_.estimator, q, measured_.size());
   bind_leak_detection(unit_.estimator.leak_detection);
+  bind_consistency();
   if (unit_.estimator.checkpoint_every_cycles > 0) open_checkpoints(config.state_directory);
 
   guess_x_.assign(layout.states.size(), 0.0);
@@ -296,7 +297,8 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     }
     fault_hooks(tick.index);
     fused_points_ = 0;
-    if (monotonic_ns() - start > deadline_ns_) {
+    const bool in_time = monotonic_ns() - start <= deadline_ns_;
+    if (!in_time) {
       flags |= dds::kFlagDeadlineOverrun;  // out of time: predict only
     } else {
       build_measurements();
@@ -306,6 +308,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
         if (reports_[i].fused) fused_points_ |= std::uint64_t{1} << i;
       if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;
     }
+    step_consistency(in_time);
     if (fused_points_ == 0) flags |= dds::kFlagPredictOnly;
     u_prev_ = u_;
     have_prev_ = true;
@@ -322,6 +325,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   if (out.quality == dds::EstimateQuality::kDegraded) ++degraded_cycles_;
   note_quality(out.quality, flags);
   publish(stamp, tick.index, out.quality, flags, estimates_valid);
+  publish_consistency(stamp, tick.index);
   if (leak_) {
     step_leak_detector(out.quality, estimates_valid);
     publish_leak(stamp, tick.index, out.quality, estimates_valid);

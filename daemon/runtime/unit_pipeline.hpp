@@ -1,5 +1,6 @@
 // One unit's estimator cycle: Modbus snapshot -> inputs -> predict -> (deadline check) -> gated
-// (constrained) update -> virtual sensors with delta-method sigma -> leak detector -> DDS samples.
+// (constrained) update -> consistency monitor -> virtual sensors with delta-method sigma -> leak
+// detector -> DDS samples.
 // The filter is the one the configuration selects (estimator.type) behind est::Estimator.
 //
 // Everything is built and sized in the constructor (start-up: allocates, throws on a bad model
@@ -18,6 +19,7 @@
 
 #include "config/config.hpp"
 #include "config/units.hpp"
+#include "daemon/estimation/consistency_monitor.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
@@ -112,6 +114,10 @@ class UnitPipeline {
   void publish_leak(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                     bool estimates_valid);
   void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
+  void bind_consistency();
+  void step_consistency(bool updated);  // updated: update() ran and filled reports_ this cycle
+  void note_consistency(std::size_t figure);
+  void publish_consistency(std::int64_t stamp_ns, std::uint64_t cycle);
   void note_quality(dds::EstimateQuality quality, std::uint32_t flags);
   void fault_hooks(std::uint64_t cycle);
 
@@ -155,6 +161,15 @@ class UnitPipeline {
   std::int64_t leak_since_ns_ = 0;     // wall time of the first LEAK in this episode
   est::LeakState last_leak_state_ = est::LeakState::kNormal;  // the last one logged
   bool references_logged_ = false;  // the learnt reference charges were logged
+
+  // Filter consistency: the mean NIS per measured point (figures 0..m-1) and over all (figure m)
+  // over a window, and per figure its logged "high" episode.
+  struct ConsistencyEpisode {
+    bool high = false;            // in a logged HIGH episode
+    std::size_t calm_cycles = 0;  // cycles in band or low since the last HIGH one
+  };
+  std::unique_ptr<est::ConsistencyMonitor> consistency_;
+  std::vector<ConsistencyEpisode> consistency_episodes_;
 
   // Crash-safe checkpoints (estimator.checkpoint_every_cycles > 0).
   std::unique_ptr<CheckpointStore> checkpoints_;

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/integration/process.hpp"
@@ -70,6 +71,8 @@ class Stack {
     port_ = std::stoi(m[1].str());
     return port_;
   }
+  // The simulator's extra options from its next start_sim() on (e.g. another --noise-scale).
+  void set_sim_args(std::vector<std::string> args) { o_.sim_args = std::move(args); }
   void stop_sim() {
     sim_->signal(SIGTERM);
     sim_->wait(std::chrono::seconds(10));

@@ -84,3 +84,38 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
   est["checkpoint_every_cycles"] = 1.5;
   require_single_error(load_json(j), "/units/0/estimator/checkpoint_every_cycles", {"integer"});
 }
+
+TEST_CASE("estimator.consistency_window_s: default, value, range and the window in cycles",
+          "[config]") {
+  auto j = demo_json();
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    CHECK(r.config->units[0].estimator.consistency_window_s == 3600.0);
+  }
+  auto& est = j["units"][0]["estimator"];
+  est["consistency_window_s"] = 86400;
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    CHECK(r.config->units[0].estimator.consistency_window_s == 86400.0);
+  }
+  est["consistency_window_s"] = 0;
+  require_single_error(load_json(j), "/units/0/estimator/consistency_window_s",
+                       {"(0, 2592000]", "got 0"});
+  est["consistency_window_s"] = "1h";
+  require_single_error(load_json(j), "/units/0/estimator/consistency_window_s", {"number"});
+  // demo.json's period is 60 s: 7 days would be 10080 cycles, fine; at 1 s, 604800: too many.
+  est["consistency_window_s"] = 7 * 86400;
+  require_ok(load_json(j));
+  est["period_s"] = 1;
+  est["deadline_s"] = 0.01;  // within period_s / runtime.time_scale
+  require_single_error(load_json(j), "/units/0/estimator/consistency_window_s",
+                       {"604800 cycles", "at most 100000"});
+  // The default window is checked too, and reported at the estimator that omits it.
+  est.erase("consistency_window_s");
+  est["period_s"] = 0.01;
+  est["deadline_s"] = 0.0001;
+  require_single_error(load_json(j), "/units/0/estimator",
+                       {"consistency_window_s / period_s", "360000 cycles"});
+}

@@ -158,3 +158,27 @@ TEST_CASE("a constrained EnKF cycle on the heat pump, on two threads, makes no h
   check_no_allocation();
   CHECK(enkf.counters().fused >= 3);
 }
+
+#include "daemon/estimation/consistency_monitor.hpp"
+
+TEST_CASE("the consistency monitor allocates nothing after construction", "[consistency][alloc]") {
+  est::ConsistencyMonitor monitor(3,
+                                  est::ConsistencyOptions{.window_cycles = 50, .min_samples = 5});
+  std::vector<est::MeasurementReport> reps(3);
+  g_allocations = 0;
+  g_counting = true;
+  for (int k = 0; k < 400; ++k) {  // fill, evict, recompute, and a new band for every k
+    for (std::size_t i = 0; i < reps.size(); ++i) {
+      reps[i].available = (k + static_cast<int>(i)) % 5 != 0;
+      reps[i].test_ratio = 0.01 * (k % 97) + static_cast<double>(i);
+      reps[i].rejected = k % 13 == 0;
+    }
+    if (k % 11 == 0)
+      monitor.skip();
+    else
+      monitor.add(reps);
+  }
+  g_counting = false;
+  check_no_allocation();
+  CHECK(monitor.overall().verdict != est::ConsistencyVerdict::kInsufficientData);
+}
