@@ -140,7 +140,7 @@ TEST_CASE("estimator_consistency carries every measured point and \"*\" every cy
   stack.daemon().wait(10s);
 }
 
-TEST_CASE("sigmas too small are flagged HIGH and logged once; the episode ends, logged once",
+TEST_CASE("sigmas too small are flagged HIGH and logged once, and the episode ends, logged once",
           "[integration][consistency][dds]") {
   StackOptions o;
   o.domain_id = 67;
