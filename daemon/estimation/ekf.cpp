@@ -65,6 +65,9 @@ void Ekf::build_constraints() {
   projection_ =
       std::make_unique<ConstrainedProjection>(n_, constraints_->rows(), options_.projection);
   active_.assign(options_.projection.max_active, -1);
+  P_free_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n_), static_cast<Eigen::Index>(n_));
+  A_free_ = constraints_->A();
+  b_free_ = constraints_->b();
 }
 
 void Ekf::apply_constraints() {
@@ -72,19 +75,32 @@ void Ekf::apply_constraints() {
   constraints_->linearise_outputs(x_prior_, y_, H_);
   x_unc_ = x_;
   const ConstraintSet& c = *constraints_;
-  const ProjectionResult result = projection_->solve(x_, P_, c.A(), c.b(), c.scale(), c.rows());
+  // Nor does the projection move a consider state: it projects the other states, in the metric
+  // of their covariance, onto the constraints with the consider states at their values.
+  P_free_ = P_;
+  A_free_ = c.A();
+  b_free_ = c.b();
+  for (std::size_t i = 0; i < n_; ++i) {
+    if (consider_[i] == 0) continue;
+    const auto k = static_cast<Eigen::Index>(i);
+    P_free_.row(k).setZero();
+    P_free_.col(k).setZero();
+    b_free_ -= A_free_.col(k) * x_(k);
+    A_free_.col(k).setZero();
+  }
+  const ProjectionResult result =
+      projection_->solve(x_, P_free_, A_free_, b_free_, c.scale(), c.rows());
   if (!result.converged) ++counters_.projection_failures;
-  for (std::size_t i = 0; i < n_; ++i)  // nor does the projection move a consider state
-    if (consider_[i] != 0) x_(static_cast<Eigen::Index>(i)) = x_unc_(static_cast<Eigen::Index>(i));
   const auto active = projection_->active();
   active_count_ = active.size();
   std::copy(active.begin(), active.end(), active_.begin());
   if (active_count_ == 0) return;
   ++counters_.constrained_updates;
-  // The covariance: the unconstrained posterior truncated at each active constraint in turn.
+  // The covariance: the unconstrained posterior truncated at each active constraint in turn
+  // (on the states the projection moves).
   for (const int r : active) {
-    row_ = c.A().row(r).transpose();
-    truncate_gaussian(x_unc_, P_, row_, c.b()(r), work_);
+    row_ = A_free_.row(r).transpose();
+    truncate_gaussian(x_unc_, P_, row_, b_free_(r), work_);
   }
 }
 

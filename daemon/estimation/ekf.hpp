@@ -123,6 +123,10 @@ class Ekf final : public Estimator {
   // Constrained mode.
   std::unique_ptr<ConstraintSet> constraints_;
   Eigen::VectorXd x_unc_, row_, work_;
+  // The projection with consider states held: P without their rows and columns, the
+  // constraints with their terms moved to the bounds.
+  Eigen::MatrixXd P_free_, A_free_;
+  Eigen::VectorXd b_free_;
   std::unique_ptr<ConstrainedProjection> projection_;
   std::vector<int> active_;
   std::size_t active_count_ = 0;

@@ -47,6 +47,10 @@ struct StateInfo {
   // measurement pulls it where the data cannot separate it from other states. Estimators honour
   // it; the configuration can change it per state.
   bool consider = false;
+  // A closure a commissioning period calibrates: estimated while states the installer knows
+  // (the weighed-in charge) are held at their known values, considered afterwards (see
+  // daemon/estimation/commissioning.hpp). Implies consider outside commissioning.
+  bool calibrate = false;
 };
 
 struct SignalInfo {

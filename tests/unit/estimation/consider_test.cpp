@@ -68,3 +68,51 @@ TEST_CASE("an EnKF update leaves a consider state's members where they were", "[
   CHECK(enkf.members().row(1) == before.row(1));
   CHECK((enkf.members().row(0) - before.row(0)).norm() > 0.0);
 }
+
+namespace {
+
+// A part and the whole it belongs to: x' = c' = 0, y = x, and x <= c. The whole c is a consider
+// state (as the heat pump's charge is while it is known from commissioning).
+struct PartOfWhole : test::RandomWalk {
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l = RandomWalk::layout();
+    l.states.push_back(
+        plant::StateInfo{.name = "c", .unit = "1", .abs_tol = 1e-10, .consider = true});
+    l.constraints.push_back(plant::LinearConstraint{.name = "x <= c",
+                                                    .over = plant::LinearConstraint::Over::kStates,
+                                                    .terms = {{0, 1.0}, {1, -1.0}},
+                                                    .bound = 0.0});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
+    f[0] = f[1] = S(0.0);
+    return plant::kModelOk;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("the constrained EKF projects onto a bound with the consider states held",
+          "[consider][ekf][constrained]") {
+  const plant::AdModel<PartOfWhole> model(PartOfWhole{});
+  est::EkfOptions o;
+  o.constrained = true;
+  est::Ekf ekf(model, std::vector<double>{0.0, 0.0}, 1, o);
+  REQUIRE(ekf.considered(1));
+  // x and c correlated (rho 0.8), c known to 0.1: a measurement of x far above c.
+  const double sx = 0.2, sc = 0.1, rho = 0.8;
+  const std::vector<double> P0{sx * sx, rho * sx * sc, rho * sx * sc, sc * sc};
+  REQUIRE(ekf.restore(std::vector<double>{0.45, 0.5}, P0, est::EstimatorCounters{}));
+  std::vector<est::Measurement> m{{0, 0.9, 1e-4, true}};
+  std::vector<est::MeasurementReport> reports(1);
+  REQUIRE(ekf.update(m, {}, reports) == est::StepStatus::kOk);
+  // The whole stays where it was and the part lands on it: the constraint holds after the
+  // update. (Projecting both and then putting c back, the part would end above the whole: the
+  // projection in the joint metric moves c up with x.)
+  CHECK(ekf.state()(1) == 0.5);
+  CHECK(ekf.state()(0) == Approx(0.5).margin(1e-12));
+  REQUIRE(ekf.active_constraints().size() == 1);
+  CHECK(ekf.covariance()(0, 0) > 0.0);
+  CHECK(ekf.covariance()(0, 0) < P0[0]);
+}

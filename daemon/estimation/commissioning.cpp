@@ -1,0 +1,73 @@
+#include "daemon/estimation/commissioning.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace hvac_twin::est {
+
+StatePhases::StatePhases(const plant::ModelLayout& layout, std::vector<KnownState> known,
+                         double settle_s, double commissioning_s)
+    : known_(std::move(known)), settle_s_(settle_s), commissioning_s_(commissioning_s) {
+  const std::size_t n = layout.states.size();
+  base_.assign(n, 0);
+  augmented_.assign(n, 0);
+  calibrate_.assign(n, 0);
+  is_known_.assign(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const plant::StateInfo& s = layout.states[i];
+    base_[i] = s.consider || s.calibrate ? 1 : 0;
+    augmented_[i] = s.augmented ? 1 : 0;
+    calibrate_[i] = s.calibrate ? 1 : 0;
+  }
+  for (const KnownState& k : known_) {
+    const auto i = layout.state(k.name);
+    known_index_.push_back(i ? *i : n);
+    if (i) is_known_[*i] = 1;
+  }
+}
+
+void StatePhases::set_base(std::size_t state, bool consider) {
+  if (state < base_.size()) base_[state] = consider ? 1 : 0;
+}
+
+std::string StatePhases::begin(Estimator& filter, double t) {
+  const std::size_t n = filter.num_states();
+  for (std::size_t k = 0; k < known_.size(); ++k) {
+    if (known_index_[k] >= n || known_index_[k] >= base_.size())
+      return "commissioning: the model has no state \"" + known_[k].name + "\"";
+    if (!(known_[k].sigma > 0.0) || !std::isfinite(known_[k].value))
+      return "commissioning: state \"" + known_[k].name + "\" needs a finite value and a sigma > 0";
+  }
+  if (commissioning(t)) {
+    std::vector<double> x(filter.state().data(), filter.state().data() + n);
+    std::vector<double> P(n * n);
+    for (std::size_t r = 0; r < n; ++r)
+      for (std::size_t c = 0; c < n; ++c)
+        P[r * n + c] =
+            filter.covariance()(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
+    for (std::size_t k = 0; k < known_.size(); ++k) {
+      const std::size_t i = known_index_[k];
+      x[i] = known_[k].value;
+      for (std::size_t j = 0; j < n; ++j)
+        P[i * n + j] = P[j * n + i] = 0.0;
+      P[i * n + i] = known_[k].sigma * known_[k].sigma;
+    }
+    if (!filter.restore(x, P, filter.counters()))
+      return "commissioning: the filter refused the covariance with the known states";
+  }
+  apply(filter, t);
+  return {};
+}
+
+void StatePhases::apply(Estimator& filter, double t) const {
+  const bool settle = settling(t), commission = commissioning(t);
+  for (std::size_t i = 0; i < base_.size(); ++i) {
+    bool consider = base_[i] != 0;
+    if (commission && calibrate_[i] != 0) consider = false;
+    if (commission && is_known_[i] != 0) consider = true;
+    if (settle && augmented_[i] != 0) consider = true;
+    filter.set_consider(i, consider);
+  }
+}
+
+}  // namespace hvac_twin::est

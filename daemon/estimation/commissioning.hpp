@@ -1,0 +1,67 @@
+// Which states a filter estimates and which it only considers, over its life (the consider flags
+// of estimator.hpp), in three phases from its start:
+//
+//  - settling (settle_s): the augmented states (slow parameters, disturbances) are held at their
+//    priors while the physical states converge onto the measurements. From a cold start the
+//    model's guess differs from the plant by several sigma at several sensors; estimating the
+//    parameters from those first innovations throws them across their range (seen on the heat
+//    pump: the coil UA factors moved by 3-5 prior sigma in the first minute) and the next
+//    prediction into a stiff corner.
+//  - commissioning (commissioning_s, optional): the installer knows some states (the refrigerant
+//    charge, weighed in). They are set to their known values with the given sigma and held; the
+//    closures no sensor can separate from them (StateInfo::calibrate: the heat pump's two-phase
+//    void fraction, which sets how much refrigerant a given subcooling means) are estimated.
+//  - operation: the known states are estimated again (a change of the charge must show as a
+//    charge change); the calibrated closures are frozen at their estimates, their posterior sigma
+//    carried as consider states. Without commissioning they stay considered at their prior: their
+//    uncertainty is in every sigma they affect, honestly larger.
+//
+// Pure library: time since the filter's start is passed in. Construction and begin() allocate
+// (start-up only); apply() does not. No exceptions.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "daemon/estimation/estimator.hpp"
+
+namespace hvac_twin::est {
+
+struct KnownState {
+  std::string name;  // state name in the model's layout
+  double value = 0.0;
+  double sigma = 0.0;  // > 0
+};
+
+class StatePhases {
+ public:
+  // layout: the filter's model's; known: empty for no commissioning.
+  StatePhases(const plant::ModelLayout& layout, std::vector<KnownState> known, double settle_s,
+              double commissioning_s);
+
+  // The operation-phase flag of a state (initially the layout's consider || calibrate): the
+  // configuration may override it.
+  void set_base(std::size_t state, bool consider);
+
+  // At the filter's start (after its reset or restore): sets the known states, unless
+  // commissioning is already over at `t` (a restart). Returns an empty string, or what was wrong
+  // (an unknown state, a sigma not positive, the filter refused the covariance); on an error the
+  // filter is unchanged.
+  std::string begin(Estimator& filter, double t);
+
+  // The flags for time t since the start. No allocation.
+  void apply(Estimator& filter, double t) const;
+
+  [[nodiscard]] bool settling(double t) const { return t < settle_s_; }
+  [[nodiscard]] bool commissioning(double t) const {
+    return !known_.empty() && t < commissioning_s_;
+  }
+
+ private:
+  std::vector<KnownState> known_;
+  std::vector<std::size_t> known_index_;
+  std::vector<char> base_, augmented_, calibrate_, is_known_;
+  double settle_s_, commissioning_s_;
+};
+
+}  // namespace hvac_twin::est

@@ -1,0 +1,103 @@
+// est::StatePhases: which states a filter estimates while it settles, while it is commissioned
+// with a known charge, and in operation; and that commissioning starts from the known value.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+#include "daemon/estimation/commissioning.hpp"
+#include "daemon/estimation/ekf.hpp"
+#include "plant_models/core/ad_model.hpp"
+
+using namespace hvac_twin;
+
+namespace {
+
+// x physical; a an augmented parameter; v an augmented closure to calibrate; m the known
+// "charge" (augmented). All constant; y = x + a + v + m.
+struct Phased {
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l;
+    l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
+    l.states.push_back(
+        plant::StateInfo{.name = "a", .unit = "1", .abs_tol = 1e-10, .augmented = true});
+    l.states.push_back(plant::StateInfo{
+        .name = "v", .unit = "1", .abs_tol = 1e-10, .augmented = true, .calibrate = true});
+    l.states.push_back(
+        plant::StateInfo{.name = "m", .unit = "kg", .abs_tol = 1e-10, .augmented = true});
+    l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
+    for (auto& v : f) v = S(0.0);
+    return plant::kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0] + x[1] + x[2] + x[3];
+    return plant::kModelOk;
+  }
+};
+
+std::vector<bool> flags(const est::Estimator& f) {
+  std::vector<bool> c;
+  for (std::size_t i = 0; i < f.num_states(); ++i) c.push_back(f.considered(i));
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("state phases: settle, commission with the charge known, operate",
+          "[commissioning][ekf]") {
+  const plant::AdModel<Phased> model(Phased{});
+  est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
+  ekf.reset(std::vector<double>{1.0, 0.0, 0.0, 0.45}, std::vector<double>{0.1, 0.2, 0.3, 0.05});
+  est::StatePhases phases(model.layout(), {{"m", 0.5, 0.005}}, 600.0, 3600.0);
+  REQUIRE(phases.begin(ekf, 0.0).empty());
+  // The known charge at its value and sigma, uncorrelated; the rest untouched.
+  CHECK(ekf.state()(3) == 0.5);
+  CHECK(ekf.covariance()(3, 3) == Approx(0.005 * 0.005));
+  CHECK(ekf.state()(0) == 1.0);
+  CHECK(ekf.covariance()(0, 0) == Approx(0.01));
+  // Settling: every augmented state held, the physical one estimated.
+  CHECK(flags(ekf) == std::vector<bool>{false, true, true, true});
+  // Commissioning: the closure calibrated, the known charge held, the parameter estimated.
+  phases.apply(ekf, 600.0);
+  CHECK(flags(ekf) == std::vector<bool>{false, false, false, true});
+  // Operation: the closure frozen (considered), the charge estimated again.
+  phases.apply(ekf, 3600.0);
+  CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
+  // The configuration may estimate the closure in operation too.
+  phases.set_base(2, false);
+  phases.apply(ekf, 7200.0);
+  CHECK(flags(ekf) == std::vector<bool>{false, false, false, false});
+}
+
+TEST_CASE("state phases: without commissioning a closure is considered from the settle on",
+          "[commissioning][ekf]") {
+  const plant::AdModel<Phased> model(Phased{});
+  est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
+  ekf.reset(std::vector<double>{1.0, 0.0, 0.0, 0.45}, std::vector<double>{0.1, 0.2, 0.3, 0.05});
+  est::StatePhases phases(model.layout(), {}, 600.0, 3600.0);
+  REQUIRE(phases.begin(ekf, 0.0).empty());
+  CHECK(ekf.state()(3) == 0.45);
+  phases.apply(ekf, 700.0);
+  CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
+}
+
+TEST_CASE("state phases: a restart after commissioning keeps the estimate; bad input is named",
+          "[commissioning][ekf]") {
+  const plant::AdModel<Phased> model(Phased{});
+  est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
+  ekf.reset(std::vector<double>{1.0, 0.0, 0.0, 0.45}, std::vector<double>{0.1, 0.2, 0.3, 0.05});
+  est::StatePhases late(model.layout(), {{"m", 0.5, 0.005}}, 600.0, 3600.0);
+  REQUIRE(late.begin(ekf, 4000.0).empty());
+  CHECK(ekf.state()(3) == 0.45);  // the estimate carried over, not the weighed-in value
+  CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
+
+  est::StatePhases unknown(model.layout(), {{"charge", 0.5, 0.005}}, 600.0, 3600.0);
+  CHECK(unknown.begin(ekf, 0.0) == "commissioning: the model has no state \"charge\"");
+  est::StatePhases no_sigma(model.layout(), {{"m", 0.5, 0.0}}, 600.0, 3600.0);
+  CHECK(no_sigma.begin(ekf, 0.0).find("sigma > 0") != std::string::npos);
+  CHECK(ekf.state()(3) == 0.45);  // unchanged by the refused begin()s
+}
