@@ -38,7 +38,7 @@ HeatPumpR32::HeatPumpR32(const hp::Params& params)
     throw std::invalid_argument("heat pump: cells must be in [2, " + std::to_string(kMaxCells) +
                                 "]");
   if (params.void_fraction < 0 || params.void_fraction > 2 || params.two_phase_htc < 0 ||
-      params.two_phase_htc > 1 || params.dp_distribution < 0 || params.dp_distribution > 1)
+      params.two_phase_htc > 2 || params.dp_distribution < 0 || params.dp_distribution > 1)
     throw std::invalid_argument("heat pump: unknown closure");
   if (r32::ph_table().build_status() != r32::Status::kOk)
     throw std::runtime_error("heat pump: the R32 property table failed to build");
@@ -56,6 +56,8 @@ hp::ProfileOptions HeatPumpR32::profile_options(const hp::Params& p, bool conden
   o.alpha_vapour = p.htc_vapour;
   o.area = coil.inner_area / static_cast<double>(cells);
   o.blend_h = p.htc_blend;
+  o.dryout_quality = p.dryout_quality;
+  o.alternative_htc = p.two_phase_htc == 2;
   o.heat_sign = condenser ? 1.0 : -1.0;
   o.void_fraction = static_cast<hp::VoidFraction>(p.void_fraction);
   o.htc = p.two_phase_htc == 0 ? hp::TwoPhaseHtc::kConstant
@@ -277,7 +279,8 @@ ModelLayout HeatPumpR32::make_layout() const {
     const hp::FactorInfo& info = hp::factor_info()[f];
     set(L_.factor[f], info.name, "1", info.min, info.max, info.initial_std, info.process_noise,
         1e-9, true, info.description);
-    l.states[L_.factor[f]].consider = info.consider;
+    l.states[L_.factor[f]].consider = info.consider || info.calibrate;
+    l.states[L_.factor[f]].calibrate = info.calibrate;
   }
   set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
       "discharge-line enthalpy: the condenser inlet");

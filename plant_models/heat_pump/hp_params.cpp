@@ -95,6 +95,11 @@ const std::vector<Entry>& table() {
         "enthalpy scale over which the single-phase heat transfer coefficient blends into the "
         "two-phase value near a saturation line"},
        HP_REF(htc_blend)},
+      {{"dryout_quality", "1", d.dryout_quality, 0.5, 0.95, false,
+        "vapour quality at which boiling dryout begins (two_phase_htc 1, 2): the boiling "
+        "coefficient "
+        "falls from there to the vapour value at the dew line"},
+       HP_REF(dryout_quality)},
       {{"nominal_mass_flow", "kg/s", d.nominal_mass_flow, 1e-3, 1.0, false,
         "refrigerant mass flow at which the nominal pressure drops apply"},
        HP_REF(nominal_mass_flow)},
@@ -161,9 +166,10 @@ const std::vector<Choice>& choices() {
       {{"void_fraction", "1", static_cast<double>(d.void_fraction), 0.0, 2.0, true,
         "two-phase void fraction: 0 homogeneous, 1 Zivi slip, 2 Smith slip (Gauss quadrature)"},
        [](Params& p) -> int& { return p.void_fraction; }},
-      {{"two_phase_htc", "1", static_cast<double>(d.two_phase_htc), 0.0, 1.0, true,
-        "two-phase heat transfer: 0 constant per coil, 1 quality-dependent condensing and boiling "
-        "correlations (Gauss quadrature)"},
+      {{"two_phase_htc", "1", static_cast<double>(d.two_phase_htc), 0.0, 2.0, true,
+        "two-phase heat transfer: 0 constant per coil, 1 quality-dependent condensing (film) and "
+        "boiling (convective, dryout) correlations, 2 their variant (condensing linear in "
+        "quality, nucleate-dominated boiling; the benchmark truth's), both by Gauss quadrature"},
        [](Params& p) -> int& { return p.two_phase_htc; }},
       {{"dp_distribution", "1", static_cast<double>(d.dp_distribution), 0.0, 1.0, true,
         "friction drop along a coil: 0 uniform, 1 in proportion to the cells' specific volume"},
@@ -184,26 +190,27 @@ const std::array<FactorInfo, kNumFactors>& factor_info() {
   // Ranges: physical plausibility. Priors: how far a unit of this model can be from the
   // nominal value (one sigma). Random walks: how fast it can drift (fouling over weeks), 0 for
   // what does not change in a unit's life. Considered by default: the closures no sensor
-  // separates from the charge or from each other (see plant_models/README.md).
+  // separates from the charge or from each other (see plant_models/README.md); the void-fraction
+  // exponent may be calibrated while commissioning with the charge known (est::StatePhases).
   static const std::array<FactorInfo, kNumFactors> table{{
-      {"fouling", 0.2, 1.5, 0.15, 1e-5, false,
+      {"fouling", 0.2, 1.5, 0.15, 1e-5, false, false,
        "outdoor-coil air-side UA factor, 1 = clean (fouling, air flow)"},
-      {"evap_ua_factor", 0.3, 2.0, 0.15, 1e-5, false,
+      {"evap_ua_factor", 0.3, 2.0, 0.15, 1e-5, false, false,
        "indoor-coil air-side UA factor (fouling, filter, air flow)"},
-      {"comp_flow_factor", 0.6, 1.4, 0.08, 1e-6, false,
+      {"comp_flow_factor", 0.6, 1.4, 0.08, 1e-6, false, false,
        "factor on the compressor's volumetric efficiency"},
-      {"void_exponent", 0.4, 1.0, 0.08, 0.0, true,
+      {"void_exponent", 0.4, 1.0, 0.08, 0.0, true, true,
        "exponent e of the two-phase slip, void fraction x / (x + (1 - x)(rho_v/rho_l)^e): "
        "2/3 Zivi, 1 homogeneous"},
-      {"cond_htc_factor", 0.3, 3.0, 0.3, 0.0, true,
+      {"cond_htc_factor", 0.3, 3.0, 0.3, 0.0, true, false,
        "factor on the condensing heat transfer coefficient"},
-      {"evap_htc_factor", 0.3, 3.0, 0.3, 0.0, true,
+      {"evap_htc_factor", 0.3, 3.0, 0.3, 0.0, true, false,
        "factor on the boiling heat transfer coefficient"},
-      {"friction_factor", 0.3, 3.0, 0.25, 0.0, true,
+      {"friction_factor", 0.3, 3.0, 0.25, 0.0, true, false,
        "factor on both coils' refrigerant pressure drops"},
-      {"valve_factor", 0.3, 2.0, 0.15, 1e-5, false,
+      {"valve_factor", 0.3, 2.0, 0.15, 1e-5, false, false,
        "factor on the expansion valve's flow coefficient"},
-      {"comp_efficiency_factor", 0.6, 1.4, 0.08, 1e-6, false,
+      {"comp_efficiency_factor", 0.6, 1.4, 0.08, 1e-6, false, false,
        "factor on the compressor's isentropic efficiency"},
   }};
   return table;
@@ -211,7 +218,7 @@ const std::array<FactorInfo, kNumFactors>& factor_info() {
 
 std::vector<ParameterInfo> parameter_info() {
   std::vector<ParameterInfo> out;
-  out.push_back({"cells", "1", 10.0, 2.0, 40.0, true, "finite-volume cells per heat exchanger"});
+  out.push_back({"cells", "1", 12.0, 2.0, 40.0, true, "finite-volume cells per heat exchanger"});
   for (const auto& f : flags())
     out.push_back(f.info);
   for (const auto& c : choices())

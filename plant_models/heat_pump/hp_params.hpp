@@ -24,7 +24,7 @@ struct CoilParams {
 
 struct Params {
   // Structure.
-  int cells = 10;  // finite-volume cells per heat exchanger
+  int cells = 12;  // finite-volume cells per heat exchanger
   bool augment_gains = true;
   bool augment_leak = true;
   std::array<bool, kNumFactors> augment{};  // factors carried as states (Factor, hp_layout.hpp)
@@ -49,6 +49,7 @@ struct Params {
   double htc_liquid = 1500.0;         // W/(m2 K)
   double htc_vapour = 800.0;          // W/(m2 K)
   double htc_blend = 10e3;            // J/kg, single-phase alpha blends to two-phase near a line
+  double dryout_quality = 0.8;        // 1, boiling dryout onset (two_phase_htc 1, 2)
   double nominal_mass_flow = 0.0143;  // kg/s, reference of the pressure drops
   double discharge_line_volume = 2.5e-5;  // m3
   double liquid_line_volume = 9.0e-5;     // m3
@@ -59,7 +60,7 @@ struct Params {
   // Closures (integer-coded; see hp_profile.hpp). The defaults are the filter's model; the
   // benchmark truth changes them to closures the filter does not share.
   int void_fraction = 1;     // 0 homogeneous, 1 Zivi, 2 Smith (quadrature)
-  int two_phase_htc = 0;     // 0 constant, 1 quality-dependent correlations (quadrature)
+  int two_phase_htc = 1;     // 0 constant, 1 quality-dependent correlations, 2 their variant
   double dp_exponent = 2.0;  // friction drop ~ (mdot / nominal)^exponent
   int dp_distribution = 0;   // 0 uniform along the coil, 1 by the cells' specific volume
 
@@ -84,6 +85,7 @@ struct FactorInfo {
   double initial_std;
   double process_noise;
   bool consider;
+  bool calibrate;  // estimated while commissioning with the charge known (StateInfo::calibrate)
   const char* description;
 };
 const std::array<FactorInfo, kNumFactors>& factor_info();

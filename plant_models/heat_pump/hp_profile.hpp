@@ -60,6 +60,8 @@ struct ProfileOptions {
   double alpha_vapour = 800.0;      // W/(m^2 K)
   double area = 0.07;               // m^2, the cell's refrigerant-side area
   double blend_h = 10e3;            // J/kg, width of the alpha blend at the lines
+  double dryout_quality = 0.8;      // 1, boiling: dryout begins (correlations only)
+  bool alternative_htc = false;     // the benchmark truth's variant of the correlations
   double eps_dt = 0.3;              // K, regularises T - T_air where it vanishes or changes sign
   double line_blend = 1000.0;       // J/kg, where a piece's end moves smoothly off a line
   double heat_sign = 1.0;           // +1: refrigerant warmer than the air (condenser), -1 colder
@@ -207,16 +209,19 @@ R two_phase_alpha(const ProfileOptions& o, const R& x) {
   if (o.htc == TwoPhaseHtc::kCondensing) {
     // Film condensation: highest at the dew line, falling towards the liquid value as the film
     // thickens (shape of Shah's correlation; mean over x close to alpha_two_phase).
+    // The variant: linear in x (a thin-film model without the shear term).
+    if (o.alternative_htc) return o.alpha_liquid + (1.25 * a - o.alpha_liquid) * x;
     const R xp = value_of(x) > 1e-12 ? exp(0.75 * log(x)) : R(0.0);
     return o.alpha_liquid + (1.35 * a - o.alpha_liquid) * xp;
   }
   if (o.htc == TwoPhaseHtc::kBoiling) {
-    // Flow boiling rising with quality (convective), with dryout from x = 0.8 to the vapour
-    // value at x = 1 (smoothstep).
-    const R rising = a * (0.7 + 0.6 * x);
-    if (value_of(x) <= 0.8) return rising;
+    // Flow boiling rising with quality (convective), with dryout from x = dryout_quality to the
+    // vapour value at x = 1 (smoothstep). The variant: nucleate boiling dominant, flatter in x.
+    const R rising = o.alternative_htc ? a * (0.8 + 0.4 * x) : a * (0.7 + 0.6 * x);
+    const double xd = o.dryout_quality;
+    if (value_of(x) <= xd) return rising;
     if (value_of(x) >= 1.0) return R(o.alpha_vapour);
-    const R s = (x - 0.8) / 0.2;
+    const R s = (x - xd) / (1.0 - xd);
     const R w = s * s * (3.0 - 2.0 * s);
     return rising * (1.0 - w) + o.alpha_vapour * w;
   }

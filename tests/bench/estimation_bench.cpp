@@ -2,7 +2,12 @@
 //
 //   estimation_bench [--short] [--hours H] [--period S] [--truth nominal|mismatched|bias|all]
 //                    [--filters ekf,cekf,enkf] [--members N] [--threads T]
-//                    [--csv FILE] [--svg FILE]
+//                    [--set PARAM=V] [--q STATE=V] [--consider STATE=0|1] [--noise-factor F]
+//                    [--commission H] [--csv FILE] [--svg FILE]
+// --set, --q, --consider change the filters' model parameters, random walks and consider flags
+// from the design the daemon runs; --noise-factor sets the factor on the R the filters are told
+// (default 2, heat_pump_scenario.hpp says why); --commission H: the filters know the charge for
+// the first H hours (default 0: never).
 //
 // Truths (heat_pump_scenario.hpp): the converged heat pump with closures the filters' model does
 // not share, nominal; the same with parameters off as units of one model differ (UA -20/+20 %,
@@ -12,8 +17,8 @@
 // and valve steps (+-5 %) every 30 min on top. Measured every period: suction and discharge
 // pressure (sigma 0.5 % of reading), the wall temperatures at the inlet and outlet of both coils
 // (0.2 K), the zone air temperature (0.05 K); inputs as the truth applied them.
-// Filters, on the nominal model at 10 cells (heat_pump_scenario.hpp, filter_parameters): the EKF,
-// the constrained EKF, the constrained EnKF.
+// Filters, on the nominal model at its default cell count (heat_pump_scenario.hpp,
+// filter_parameters): the EKF, the constrained EKF, the constrained EnKF.
 // Reported per truth and filter, scored after a 10-minute convergence window:
 //  - accuracy: MAPE of the unmeasured condenser-outlet pressure and valve-inlet enthalpy (aim
 //    0.5 %), heat-flow errors, the charge error in % of the nameplate (aim 2 %);
@@ -88,6 +93,19 @@ bool parse(int argc, char** argv, Args& a) {
         a.truths = {bench::TruthKind::kSensorBias};
       else if (t != "all")
         return false;
+    } else if (s == "--set" || s == "--q" || s == "--consider") {
+      const std::string kv = next();
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) return false;
+      const std::string key = kv.substr(0, eq);
+      const double value = std::atof(kv.substr(eq + 1).c_str());
+      if (s == "--set") bench::filter_parameters()[key] = value;
+      if (s == "--q") bench::process_noise_overrides()[key] = value;
+      if (s == "--consider") bench::consider_overrides()[key] = value != 0.0;
+    } else if (s == "--commission") {
+      bench::commissioning_s = 3600.0 * std::atof(next().c_str());
+    } else if (s == "--noise-factor") {
+      bench::filter_noise_factor = std::atof(next().c_str());
     } else if (s == "--filters") {
       const std::string list = next();
       a.filters.clear();
@@ -232,13 +250,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: estimation_bench [--short] [--hours H] [--period S] "
                  "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
-                 "[--threads T] [--csv FILE] [--svg FILE]\n");
+                 "[--threads T] [--set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
+                 "[--noise-factor F] [--commission H] [--csv FILE] [--svg FILE]\n");
     return 2;
   }
   std::printf(
       "estimation_bench: %.1f simulated hours per truth, period %.0f s, EnKF %zu members "
-      "on %zu threads; truth %d cells, filters 10 cells\n",
-      a.hours, a.period, a.members, a.threads, sim::kTruthCells);
+      "on %zu threads; truth %d cells, filters %d cells, R x %.1f\n",
+      a.hours, a.period, a.members, a.threads, sim::kTruthCells,
+      static_cast<int>(
+          plant::with_defaults(*plant::find_schema("heat_pump_r32"), bench::filter_parameters())
+              .at("cells")),
+      bench::filter_noise_factor);
   bool finite = true;
   for (const bench::TruthKind kind : a.truths) {
     bench::HeatPumpTruth truth({}, 7, kind);
@@ -268,11 +291,11 @@ int main(int argc, char** argv) {
         truth_h.push_back(truth.y()[kValveInletEnthalpy]);
       }
       for (auto& r : runs) {
-        r.step(u, truth, a.period, scoring);
+        r.step(u, truth, t, a.period, scoring);
         if (std::getenv("BENCH_TRACE") != nullptr && !r.step_ms.empty())
-          std::printf("k %d %s step %.1f ms | charge %.4f (truth %.4f) M_cond %.4f (%.4f)\n", k,
+          std::printf("k %d %s step %.1f ms | charge %.4f (truth %.4f) M_cond %.4f (%.4f) %s\n", k,
                       r.name.c_str(), r.step_ms.back(), r.filter->state()(0), truth.x()[0],
-                      r.filter->state()(1), truth.x()[1]);
+                      r.filter->state()(1), truth.x()[1], r.trace_line().c_str());
       }
       if (k > 0 && k % static_cast<int>(1800.0 / a.period) == 0) {
         std::printf("  %s: %5.2f h simulated;", bench::truth_name(kind), (t + a.period) / 3600.0);

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <random>
 #include <span>
@@ -30,16 +31,18 @@
 
 namespace hvac_twin::bench {
 
-// Sensor noise (what the truth's measurements carry: sigma = rel * |y| + abs) and what the
-// filters assume: sensor noise plus representativeness error. A 10-cell model does not see the
-// wall temperature at the same place as a 20-cell truth; with the sensor noise alone the
-// innovations are hundreds of times their predicted variance. Five times the sensor sigma was
-// the smallest factor tried (1, 2.5, 5) that keeps the heat-flow errors low.
+// Sensor noise (what the truth's measurements carry: sigma = rel * |y| + abs). The filters are
+// told that sigma times filter_noise_factor: the sensor plus the representativeness error of a
+// wall thermocouple the model sees as a cell mean. Measured on the nominal truth, constrained
+// EKF, one hour: factor 1 gives a time-averaged NIS of 3.6 and 30 % of the condenser-outlet wall
+// readings gate-rejected; 2 gives 0.95 and at most 3 %; 5 (the factor before the model's
+// two-phase closure became quality-dependent) 0.17. The remaining model error belongs in Q
+// (issue 12); until then this factor is the measured stand-in, not a tuning knob.
 struct Measured {
   std::size_t output;
   double rel_sigma, abs_sigma;
 };
-inline constexpr double kFilterNoiseFactor = 5.0;
+inline double filter_noise_factor = 2.0;
 
 inline const std::vector<Measured> kMeasured{
     {plant::hp::kSuctionPressure, 0.005, 0.0},  {plant::hp::kDischargePressure, 0.005, 0.0},
@@ -110,7 +113,7 @@ class HeatPumpTruth {
     for (const auto& m : kMeasured) {
       const double sd = m.rel_sigma * std::abs(y_[m.output]) + m.abs_sigma;
       const double v = y_[m.output] + bias_[m.output] + sd * noise_(rng_);
-      const double sd_filter = kFilterNoiseFactor * sd;
+      const double sd_filter = filter_noise_factor * sd;
       z_.push_back({m.output, v, sd_filter * sd_filter, true});
       y_measured_[m.output] = v;
     }
@@ -142,18 +145,41 @@ class HeatPumpTruth {
   std::normal_distribution<double> noise_{0.0, 1.0};
 };
 
-// The filters' model: the nominal parameters at 10 cells, with internal gains, leak rate and
-// outdoor-coil fouling augmented.
-inline const plant::ParameterMap& filter_parameters() {
-  static const plant::ParameterMap p{{"cells", 10}, {"augment_fouling", 1}};
+// The filters' model: the nominal parameters at the default cell count with what the daemon's
+// heat-pump configuration augments (config/demo-heat-pump.json: outdoor-coil fouling).
+// Benchmarks may change it (estimation_bench --set), and the random walks and consider flags
+// below, before they build a filter. Tried on the nominal truth, one hour: augmenting the other
+// factors as well (indoor UA, compressor flow and efficiency, valve) and calibrating the void
+// exponent while commissioning drove the filter into gate rejections of 40-57 % after the
+// commissioning hour; the void exponent considered at its prior left the charge 6 % high at
+// 12 sigma. Neither is the default until it is shown to hold.
+inline plant::ParameterMap& filter_parameters() {
+  static plant::ParameterMap p{{"augment_fouling", 1}};
   return p;
 }
+// Commissioning (daemon/estimation/commissioning.hpp): for this long after the start the filters
+// know the truth's charge (weighed in, sigma 5 g) and calibrate the closures marked for it
+// (estimation_bench --commission H; 0, the default: no commissioning).
+inline double commissioning_s = 0.0;
+inline constexpr double kWeighingSigma = 0.005;  // kg
+// The filters hold their parameters this long after the start (est::StatePhases).
+inline constexpr double kSettleS = 600.0;
+inline std::map<std::string, double>& process_noise_overrides() {
+  static std::map<std::string, double> q;
+  return q;
+}
+inline std::map<std::string, bool>& consider_overrides() {
+  static std::map<std::string, bool> c;
+  return c;
+}
 
-// The layout's random-walk intensities, the filters' Q.
+// The layout's random-walk intensities with the overrides, the filters' Q.
 inline std::vector<double> layout_process_noise(const plant::ContinuousModel& model) {
   std::vector<double> q;
-  for (const auto& s : model.layout().states)
-    q.push_back(s.process_noise);
+  for (const auto& s : model.layout().states) {
+    const auto it = process_noise_overrides().find(s.name);
+    q.push_back(it != process_noise_overrides().end() ? it->second : s.process_noise);
+  }
   return q;
 }
 
@@ -168,7 +194,7 @@ inline void start_filter(const plant::ContinuousModel& model, est::Estimator& fi
   plant::Integrator settle(model, plant::IntegratorOptions{});
   settle.step(x0, u, 600.0, {});
   for (const auto& s : model.layout().states)
-    s0.push_back(0.2 * s.initial_std);
+    s0.push_back(s.augmented ? s.initial_std : 0.2 * s.initial_std);
   filter.reset(x0, s0);
 }
 

@@ -1,10 +1,11 @@
 // est::StatePhases: which states a filter estimates while it settles, while it is commissioned
 // with a known charge, and in operation; and that commissioning starts from the known value.
+#include "daemon/estimation/commissioning.hpp"
+
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <vector>
 
-#include "daemon/estimation/commissioning.hpp"
 #include "daemon/estimation/ekf.hpp"
 #include "plant_models/core/ad_model.hpp"
 
@@ -29,7 +30,8 @@ struct Phased {
   }
   template <class S>
   int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
-    for (auto& v : f) v = S(0.0);
+    for (auto& v : f)
+      v = S(0.0);
     return plant::kModelOk;
   }
   template <class S>
@@ -41,7 +43,8 @@ struct Phased {
 
 std::vector<bool> flags(const est::Estimator& f) {
   std::vector<bool> c;
-  for (std::size_t i = 0; i < f.num_states(); ++i) c.push_back(f.considered(i));
+  for (std::size_t i = 0; i < f.num_states(); ++i)
+    c.push_back(f.considered(i));
   return c;
 }
 
@@ -85,7 +88,7 @@ TEST_CASE("state phases: without commissioning a closure is considered from the 
   CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
 }
 
-TEST_CASE("state phases: a restart after commissioning keeps the estimate; bad input is named",
+TEST_CASE("state phases: a restart after commissioning keeps the estimate, and bad input is named",
           "[commissioning][ekf]") {
   const plant::AdModel<Phased> model(Phased{});
   est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
