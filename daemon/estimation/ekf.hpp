@@ -39,7 +39,8 @@ struct EkfOptions {
   double nis_gate = 10.83;             // χ²₁ at α = 1e-3
   int max_consecutive_rejections = 5;  // a point rejected this many times in a row is "faulty"
   double min_measurement_variance = 1e-12;
-  plant::IntegratorOptions integrator;  // `sensitivities` is forced on
+  plant::IntegratorOptions integrator =
+      filter_integrator_options();  // `sensitivities` is forced on
   // The constrained update: after the Joseph update, the estimate is projected onto the model's
   // constraints (state bounds, linear state constraints, output constraints linearised at the
   // prior) by the QP of projection.hpp, and the covariance is the PDF truncation

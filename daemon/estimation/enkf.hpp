@@ -44,7 +44,8 @@ struct EnkfOptions {
   double min_measurement_variance = 1e-12;
   bool constrained = true;
   std::uint64_t seed = 1;
-  plant::IntegratorOptions integrator;  // `sensitivities` is forced off
+  plant::IntegratorOptions integrator =
+      filter_integrator_options();  // `sensitivities` is forced off
   ProjectionOptions projection;
 };
 

@@ -14,9 +14,22 @@
 #include <string>
 #include <vector>
 
+#include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model_info.hpp"
 
 namespace hvac_twin::est {
+
+// The filters' integrator options: a prediction that needs more than kMaxPredictSteps internal
+// steps fails (the filter keeps x and inflates P, StepStatus::kModelError) instead of grinding
+// on. A heat-pump period of 5 s takes 20-250 steps; a prediction from a state the model cannot
+// resolve ran to the integrator's general limit of 20000 steps, 40 s of one core per failed
+// prediction at 12 cells, longer than the daemon's hang timeout.
+inline constexpr long kMaxPredictSteps = 1000;
+inline plant::IntegratorOptions filter_integrator_options() {
+  plant::IntegratorOptions o;
+  o.max_steps = kMaxPredictSteps;
+  return o;
+}
 
 // One scalar measurement offered to update().
 struct Measurement {

@@ -27,6 +27,7 @@ struct Outcome {
   std::vector<est::StepStatus> predicts;
   double final_m_cond_error = 0.0;   // [kg]
   double final_suction_error = 0.0;  // relative
+  long most_steps_failed = 0;        // integrator steps of the costliest failed prediction
 };
 
 Outcome run(bool constrained) {
@@ -55,6 +56,9 @@ Outcome run(bool constrained) {
     rig.run(truth, u, 5.0, 5.0);
     const auto y = rig.outputs(truth, u);
     out.predicts.push_back(ekf.predict(u, 5.0));
+    if (out.predicts.back() == est::StepStatus::kModelError)
+      out.most_steps_failed =
+          std::max(out.most_steps_failed, ekf.integrator().last_stats().steps);
     std::vector<est::Measurement> z;
     for (std::size_t i = 0; i < outs.size(); ++i)
       z.push_back({outs[i], y[outs[i]], sigma[i] * sigma[i], true});
@@ -121,5 +125,9 @@ TEST_CASE(
        << constrained.final_m_cond_error << " kg (largest after cycle 5: " << worst_after
        << " kg), suction error " << constrained.final_suction_error);
   CHECK(std::abs(constrained.final_m_cond_error) < worst_after / 3.0);
+  // A failed prediction gives up within the filters' step budget (it ground through 20000
+  // steps, 40 s, before the budget existed).
+  CHECK(plain.most_steps_failed <= est::kMaxPredictSteps);
+  CHECK(constrained.most_steps_failed <= est::kMaxPredictSteps);
   CHECK(std::abs(constrained.final_suction_error) < 0.01);
 }
