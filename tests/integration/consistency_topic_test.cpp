@@ -63,6 +63,14 @@ bool once(const std::string& text, const std::string& what) {
   return first != std::string::npos && first == text.rfind(what);
 }
 
+// How often `what` appears in `text`.
+int count(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1))
+    ++n;
+  return n;
+}
+
 }  // namespace
 
 TEST_CASE("estimator_consistency carries every measured point and \"*\" every cycle",
@@ -190,12 +198,24 @@ TEST_CASE("sigmas too small are flagged HIGH and logged once, and the episode en
   const bool recovered = eventually(
       [&] { return once(stack.daemon().err(), "point zone_temp: innovations consistent again"); },
       60s);
-  INFO("daemon stderr:\n" << stack.daemon().err());
   CHECK(recovered);
-  watch(
-      reader, seen, [](const auto&) { return false; }, 3s);
-  CHECK(seen.newest.at("zone_temp").verdict != dds::ConsistencyVerdict::kHigh);
-  CHECK(once(stack.daemon().err(), "point zone_temp: innovations larger"));
+  // The topic says so too. Afterwards the single-sensor filter may lose track again for a while
+  // (seen once under the sanitizers, 3 s after the recovery): a new episode, logged as such.
+  // Logged once per episode either way: one warning per episode, one end per ended episode.
+  const bool not_high = watch(
+      reader, seen,
+      [](const auto& newest) {
+        return newest.contains("zone_temp") &&
+               newest.at("zone_temp").verdict != dds::ConsistencyVerdict::kHigh;
+      },
+      10s);
+  const std::string after = stack.daemon().err();
+  INFO("daemon stderr:\n" << after);
+  CHECK(not_high);
+  const int episodes = count(after, "point zone_temp: innovations larger");
+  const int ended = count(after, "point zone_temp: innovations consistent again");
+  CHECK(ended >= 1);
+  CHECK((episodes == ended || episodes == ended + 1));
   stack.daemon().signal(SIGTERM);
   stack.daemon().wait(10s);
 }
