@@ -57,8 +57,7 @@ Outcome run(bool constrained) {
     const auto y = rig.outputs(truth, u);
     out.predicts.push_back(ekf.predict(u, 5.0));
     if (out.predicts.back() == est::StepStatus::kModelError)
-      out.most_steps_failed =
-          std::max(out.most_steps_failed, ekf.integrator().last_stats().steps);
+      out.most_steps_failed = std::max(out.most_steps_failed, ekf.integrator().last_stats().steps);
     std::vector<est::Measurement> z;
     for (std::size_t i = 0; i < outs.size(); ++i)
       z.push_back({outs[i], y[outs[i]], sigma[i] * sigma[i], true});
