@@ -45,6 +45,7 @@ HeatPumpR32::HeatPumpR32(const hp::Params& params)
   prof_cond_ = profile_options(p_, true, n_);
   prof_evap_ = profile_options(p_, false, n_);
   cache_key_.assign(2 * n_ + 15, 0.0);
+  cell_jets_.resize(2 * kMaxCells);
 }
 
 hp::ProfileOptions HeatPumpR32::profile_options(const hp::Params& p, bool condenser,

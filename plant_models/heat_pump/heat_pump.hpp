@@ -122,7 +122,7 @@ class HeatPumpR32 {
     T h_dl{}, h_ll{}, h_sl{};                     // J/kg
     std::array<T, kMaxCells> h_cond{}, h_evap{};  // J/kg
     T t_air{};                                    // K, zone air (the evaporator's air inlet)
-    T g_cond{}, g_evap{};  // W/K per cell, air side (UA factors included)
+    T g_cond{}, g_evap{};                         // W/K per cell, air side (UA factors included)
     T comp_flow{}, void_exponent{}, cond_htc{}, evap_htc{}, friction{};  // factors (Factor)
   };
   struct Conditions {
@@ -137,17 +137,38 @@ class HeatPumpR32 {
   void map_inputs(const SideInputs<A>& from, SideInputs<B>& to, F&& f) const;
   template <class A, class B, class F>
   void map_side(const Eval<A>& from, Eval<B>& to, F&& f) const;
+  template <class A, class B, class F>
+  static void map_cell(const CoilCell<A>& from, CoilCell<B>& to, F&& f);
   // Residuals of the pressure solve, mass of the cells minus the side's mass [kg], at the given
   // pressures. With `e`, the full evaluation (coil cells with their mass partials) is stored.
   template <class T>
   int side_masses(const T& p_cond, const T& p_evap, const SideInputs<T>& in, const Conditions& c,
                   T& r_cond, T& r_evap, Eval<T>* e) const;
   // One coil cell at pressure p: its mass [kg]; with `out`, also its mass partials and profile
-  // means (the profile evaluated with Tangent<4, T> in p, h_in, h_out, t_air).
+  // means (the profile evaluated with Tangent<4, T> in p, h_in, h_out, t_air). `slot` names the
+  // cell (condenser k: k, evaporator k: kMaxCells + k) for the local-jet cache below.
   template <class T>
   T coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air,
               const hp::CellScalars<T>& k, const hp::ProfileOptions& o, double volume,
-              CoilCell<T>* out) const;
+              std::size_t slot, CoilCell<T>* out) const;
+  template <class T>
+  T coil_cell_direct(const T& p, const T& h_in, const T& h_out, const T& t_air,
+                     const hp::CellScalars<T>& k, const hp::ProfileOptions& o, double volume,
+                     CoilCell<T>* out) const;
+
+  // The local jet of a coil cell: everything coil_cell() stores, with its gradient in the cell's
+  // seven local inputs (p, h_in, h_out, t_air, g_air, alpha factor, void exponent). A cell
+  // depends on the state only through those, so a Jacobian evaluates each cell's profile once,
+  // in Dual<7> (its partials then carry second derivatives), and every derivative chunk
+  // completes it by the chain rule instead of integrating the profile again in its own, wider
+  // scalar. Keyed by the input values: the chunks of one Jacobian share the state's values.
+  static constexpr int kCellInputs = 7;
+  using CellDual = Dual<kCellInputs>;
+  struct CellJet {
+    std::array<double, kCellInputs> key{};
+    bool valid = false;
+    CoilCell<CellDual> cell{};
+  };
   // A factor's value: its state, or the parameter when it is not a state.
   template <class S>
   S factor(std::span<const S> x, hp::Factor f) const {
@@ -172,6 +193,7 @@ class HeatPumpR32 {
   mutable double cache_pc_ = 0.0, cache_pe_ = 0.0;
   mutable std::array<double, 4> cache_jac_{};
   mutable bool cache_valid_ = false;
+  mutable std::vector<CellJet> cell_jets_;  // 2 * kMaxCells slots (see coil_cell)
 };
 
 }  // namespace hvac_twin::plant

@@ -75,22 +75,80 @@ void HeatPumpR32::map_side(const Eval<A>& from, Eval<B>& to, F&& f) const {
   to.dl = line(from.dl);
   to.ll = line(from.ll);
   to.sl = line(from.sl);
-  const auto coil = [&f](const CoilCell<A>& a) {
-    return CoilCell<B>{f(a.p),        f(a.T_in),     f(a.T_out),  f(a.h_l),
-                       f(a.h_v),      f(a.mass),     f(a.mass_p), f(a.mass_in),
-                       f(a.mass_out), f(a.mass_air), f(a.cap_p),  f(a.cap_in),
-                       f(a.cap_out),  f(a.cap_air),  f(a.alpha),  f(a.alpha_T)};
-  };
   for (std::size_t k = 0; k < n_; ++k) {
-    to.cond[k] = coil(from.cond[k]);
-    to.evap[k] = coil(from.evap[k]);
+    map_cell(from.cond[k], to.cond[k], f);
+    map_cell(from.evap[k], to.evap[k], f);
   }
+}
+
+template <class A, class B, class F>
+void HeatPumpR32::map_cell(const CoilCell<A>& a, CoilCell<B>& to, F&& f) {
+  to =
+      CoilCell<B>{f(a.p),       f(a.T_in),    f(a.T_out),    f(a.h_l),      f(a.h_v),   f(a.mass),
+                  f(a.mass_p),  f(a.mass_in), f(a.mass_out), f(a.mass_air), f(a.cap_p), f(a.cap_in),
+                  f(a.cap_out), f(a.cap_air), f(a.alpha),    f(a.alpha_T)};
 }
 
 template <class T>
 T HeatPumpR32::coil_cell(const T& p, const T& h_in, const T& h_out, const T& t_air,
                          const hp::CellScalars<T>& k, const hp::ProfileOptions& o, double volume,
-                         CoilCell<T>* out) const {
+                         std::size_t slot, CoilCell<T>* out) const {
+  if constexpr (!kIsDual<T>) {
+    // Values only: a jet at these inputs (a Jacobian's chunk that seeds no refrigerant state, or
+    // the right-hand side at the state of the last Jacobian) already holds them.
+    if (out != nullptr) {
+      const CellJet& jet = cell_jets_[slot];
+      if (jet.valid &&
+          jet.key == std::array<double, kCellInputs>{p, h_in, h_out, t_air, k.g_air, k.alpha_factor,
+                                                     k.void_exponent}) {
+        map_cell(jet.cell, *out, [](const CellDual& q) { return q.v; });
+        return out->mass;
+      }
+    }
+    return coil_cell_direct(p, h_in, h_out, t_air, k, o, volume, out);
+  } else {
+    if (out == nullptr) return coil_cell_direct(p, h_in, h_out, t_air, k, o, volume, out);
+    // The local jet (see CellJet): evaluated once per distinct input values, then chained.
+    const std::array<const T*, kCellInputs> in{&p,       &h_in,           &h_out,          &t_air,
+                                               &k.g_air, &k.alpha_factor, &k.void_exponent};
+    CellJet& jet = cell_jets_[slot];
+    bool same = jet.valid;
+    for (int i = 0; i < kCellInputs; ++i)
+      same = same && jet.key[static_cast<std::size_t>(i)] == in[static_cast<std::size_t>(i)]->v;
+    if (!same) {
+      std::array<CellDual, kCellInputs> z{};
+      for (int i = 0; i < kCellInputs; ++i) {
+        const auto ui = static_cast<std::size_t>(i);
+        jet.key[ui] = in[ui]->v;
+        z[ui] = CellDual(in[ui]->v);
+        z[ui].d[ui] = 1.0;
+      }
+      const hp::CellScalars<CellDual> kz{z[4], z[5], z[6]};
+      const CellDual mass = coil_cell_direct(z[0], z[1], z[2], z[3], kz, o, volume, &jet.cell);
+      jet.valid = std::isfinite(mass.v);
+      if (!jet.valid) return T(std::nan(""));
+    }
+    constexpr int M = T::kDirections;
+    const auto chain = [&in](const CellDual& q) {
+      T r(q.v);
+      for (int i = 0; i < kCellInputs; ++i) {
+        const double g = q.d[static_cast<std::size_t>(i)];
+        if (g == 0.0) continue;
+        const auto& di = in[static_cast<std::size_t>(i)]->d;
+        for (int j = 0; j < M; ++j)
+          r.d[static_cast<std::size_t>(j)] += g * di[static_cast<std::size_t>(j)];
+      }
+      return r;
+    };
+    map_cell(jet.cell, *out, chain);
+    return out->mass;
+  }
+}
+
+template <class T>
+T HeatPumpR32::coil_cell_direct(const T& p, const T& h_in, const T& h_out, const T& t_air,
+                                const hp::CellScalars<T>& k, const hp::ProfileOptions& o,
+                                double volume, CoilCell<T>* out) const {
   if (out == nullptr) {  // the mass only
     hp::CellEnds<T> c;
     if (!hp::cell_ends(p, h_in, h_out, t_air, o.line_blend, c)) return T(std::nan(""));
@@ -222,10 +280,11 @@ int HeatPumpR32::side_masses(const T& p_cond, const T& p_evap, const SideInputs<
   for (std::size_t k = 0; k < N; ++k) {
     const T& h_in = k == 0 ? in.h_dl : in.h_cond[k - 1];
     mass_cond += coil_cell(T(p_cond - dp_cond * w_cond[k]), h_in, in.h_cond[k], t_out, k_cond,
-                           prof_cond_, v_cond, e != nullptr ? &e->cond[k] : nullptr);
+                           prof_cond_, v_cond, k, e != nullptr ? &e->cond[k] : nullptr);
     const T& h_in_e = k == 0 ? in.h_ll : in.h_evap[k - 1];
-    mass_evap += coil_cell(T(p_evap + dp_evap * (1.0 - w_evap[k])), h_in_e, in.h_evap[k], in.t_air,
-                           k_evap, prof_evap_, v_evap, e != nullptr ? &e->evap[k] : nullptr);
+    mass_evap +=
+        coil_cell(T(p_evap + dp_evap * (1.0 - w_evap[k])), h_in_e, in.h_evap[k], in.t_air, k_evap,
+                  prof_evap_, v_evap, kMaxCells + k, e != nullptr ? &e->evap[k] : nullptr);
   }
   if (!isfinite(value_of(mass_cond)) || !isfinite(value_of(mass_evap))) return kModelRecoverable;
   r_cond = mass_cond - in.m_cond;
@@ -308,7 +367,7 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
   e.comp.w_elec = e.comp.w_elec / comp_efficiency;
   // Expansion valve between the liquid line and the evaporator inlet.
   e.mdot_valve = factor(x, hp::kValve) * hp::valve_flow(p_, u[hp::kValveOpening], e.ll.rho,
-                                                         S(e.ll.p - (e.p_evap + e.dp_evap)));
+                                                        S(e.ll.p - (e.p_evap + e.dp_evap)));
   e.leak = L_.leak != hp::kNone ? x[L_.leak] * kGramPerHour : S(p_.leak_rate * kGramPerHour);
   e.q_int = L_.q_int != hp::kNone ? x[L_.q_int] : S(p_.internal_gains);
   e.cond_htc = si.cond_htc;
@@ -487,8 +546,8 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   const S h_last_e = 1e3 * x[L_.h_evap.last()];
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;
-  y[kCondWallTempIn] = wall_at_end(e.cond[0], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
-                                   e.p_cond, e.dl.h, x[L_.tw_cond[0]]);
+  y[kCondWallTempIn] = wall_at_end(e.cond[0], prof_cond_, e.g_cond, e.cond_htc, t_out_k, e.p_cond,
+                                   e.dl.h, x[L_.tw_cond[0]]);
   y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
                                     e.ll.p, h_last_c, x[L_.tw_cond.last()]);
   y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, e.evap_htc, t_air_k,

@@ -129,6 +129,40 @@ TEST_CASE("with every uncertain parameter a state, the Jacobians are exact too",
   CHECK(e.h < 1e-6);
 }
 
+TEST_CASE("the cell jets a Jacobian keeps change neither f nor the next Jacobian", "[heat_pump]") {
+  // A Jacobian evaluates each cell's profile once in its seven local inputs and keeps that jet
+  // for the chunks that follow and for values at the same state (HeatPumpR32::CellJet). What it
+  // keeps must agree with a fresh evaluation: f before and after, at a state and at a nearby one,
+  // and the Jacobian at a second state with the first state's jets still held.
+  const HeatPumpRig rig;
+  const auto& m = *rig.model;
+  const std::size_t n = m.num_states();
+  const auto u = nominal_inputs();
+  auto x = rig.start();
+  rig.run(x, u, 600.0);
+  auto x2 = x;
+  x2[rig.hp->slots().h_cond[3]] += 0.5;  // kJ/kg
+  std::vector<double> f0(n), f1(n), fj(n), j1(n * n), j2(n * n), j2_fresh(n * n), f2(n);
+  REQUIRE(m.rhs(x, u, f0) == 0);
+  REQUIRE(m.rhs_jacobian(x, u, fj, j1) == 0);
+  REQUIRE(m.rhs(x, u, f1) == 0);
+  REQUIRE(m.rhs_jacobian(x2, u, f2, j2) == 0);
+  const auto fresh = m.clone();  // no jets
+  REQUIRE(fresh->rhs_jacobian(x2, u, {}, j2_fresh) == 0);
+  double df = 0.0, dj = 0.0, jmax = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double scale = std::abs(f0[i]) + 1e-9;
+    df = std::max({df, std::abs(f1[i] - f0[i]) / scale, std::abs(fj[i] - f0[i]) / scale});
+  }
+  for (std::size_t i = 0; i < n * n; ++i) {
+    dj = std::max(dj, std::abs(j2[i] - j2_fresh[i]));
+    jmax = std::max(jmax, std::abs(j2_fresh[i]));
+  }
+  INFO("f: " << df << " relative; Jacobian: " << dj / jmax << " of its largest entry");
+  CHECK(df < 1e-10);
+  CHECK(dj <= 1e-12 * jmax);
+}
+
 namespace {
 
 // The inventory recomputed from the outputs and the state, independently of the model's solve:
