@@ -85,9 +85,14 @@ struct IntegratorCallbacks {
     return 0;
   }
 
-  // J at a step's converged state, for the direct sensitivity solver.
+  // J at a step's converged state, for the direct sensitivity solver; with
+  // reuse_newton_jacobian, the Newton iteration's if there is one.
   static int step_jacobian(void* owner, std::span<const double> y, const double** J) {
     Integrator& it = self(owner);
+    if (it.options_.reuse_newton_jacobian) {
+      *J = it.jacobians_->latest();
+      if (*J != nullptr) return kModelOk;
+    }
     return it.jacobians_->get(y, it.u_, J);
   }
 

@@ -59,6 +59,14 @@ struct IntegratorOptions {
   // with it (abs_tol_i / (abs_tol_j / rel_tol) * sensitivity_rel_tol / rel_tol).
   double sensitivity_rel_tol = 0.0;
   SensitivityMethod sensitivity_method = SensitivityMethod::kDirect;
+  // kDirect only, for comparisons: solve each step's sensitivity system with the Jacobian
+  // CVODES's Newton iteration last evaluated (it keeps one while its iteration converges),
+  // instead of one at every step's state. Cheaper by the Jacobians, but F is then the derivative
+  // of BDF steps on a model linearised at an older state. Measured on the heat pump
+  // (race_bench --reuse-jacobians): the step half as costly, and the outputs' sigma 20 % off in
+  // the period after a large update (exact: 0.01 %). Off (the default): the exact derivative of
+  // CVODES's steps, one Jacobian per step.
+  bool reuse_newton_jacobian = false;
 };
 
 struct IntegrationStats {

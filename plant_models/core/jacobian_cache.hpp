@@ -34,6 +34,13 @@ class JacobianCache {
   // Whether the stored matrix, if any, was evaluated at exactly x.
   [[nodiscard]] bool holds(std::span<const double> x) const;
 
+  // The stored matrix, wherever it was evaluated, or null if none (counted as a hit).
+  const double* latest() {
+    if (!valid_) return nullptr;
+    ++hits_;
+    return jac_.get();
+  }
+
   // Model Jacobian evaluations and requests served from the store since construction.
   [[nodiscard]] long evaluations() const { return evaluations_; }
   [[nodiscard]] long hits() const { return hits_; }

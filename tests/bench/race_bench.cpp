@@ -17,12 +17,20 @@
 // F's error is measured on the dimensionless matrix D^-1 F D, D = diag(abs_tol_i / rel_tol) (each
 // state in units of its resolution scale, the scale the integrator's own tolerances use):
 // relative Frobenius norm, and the largest entry error relative to the largest entry of its
-// column in the reference.
+// column in the reference. What matters to the filter is printed next to them: the error F's
+// error makes in its prior covariance F P F' + Q_d (P the filter's own, Q_d its process noise),
+// as the largest eigenvalue of the difference in units of the reference covariance, and in the
+// outputs' standard deviations sqrt(diag(H P- H')), the largest relative error over all outputs.
 //
-//   race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]
+//   race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R] [--reuse-jacobians]
+//              [--max-step S]
 //
+// The F paths start from the filter's integrator options (est::filter_integrator_options).
 // --sens-tol R puts F under sensitivity error control at relative tolerance R (the EKF's and the
-// F paths' integrators; the reference is unchanged).
+// F paths' integrators; the reference is unchanged); the other two flags are described at their
+// variables below.
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -77,15 +85,23 @@ long model_jacobians(const S& s) {
 // --sens-tol: F under sensitivity error control at this relative tolerance (0: off).
 double g_sens_tol = 0.0;
 
+// --reuse-jacobians: the direct sensitivity solve reuses the Newton iteration's Jacobian
+// (IntegratorOptions::reuse_newton_jacobian); --max-step S: the filter's integrators step at
+// most S seconds.
+bool g_reuse_jacobians = false;
+double g_max_step = 0.0;
+
 template <class O>
 void set_sensitivity_tolerance(O& o) {
+  if constexpr (requires { o.reuse_newton_jacobian; }) o.reuse_newton_jacobian = g_reuse_jacobians;
+  if (g_max_step > 0.0) o.max_step_s = g_max_step;
   if (g_sens_tol <= 0.0) return;
   o.sensitivity_error_control = true;
   if constexpr (requires { o.sensitivity_rel_tol; }) o.sensitivity_rel_tol = g_sens_tol;
 }
 
 plant::IntegratorOptions with_f(bool cvodes_newton) {
-  plant::IntegratorOptions o;
+  plant::IntegratorOptions o = est::filter_integrator_options();
   o.sensitivities = true;
   if (cvodes_newton) use_cvodes_newton(o);
   set_sensitivity_tolerance(o);
@@ -94,7 +110,48 @@ plant::IntegratorOptions with_f(bool cvodes_newton) {
 
 struct FError {
   double frobenius = 0.0, max_column = 0.0;
+  double covariance = 0.0;  // what F's error does to the filter's prior covariance (below)
+  double sigma = 0.0;       // and to the outputs' standard deviations: largest relative error
 };
+
+// The largest relative error of the outputs' standard deviations sqrt(diag(H A H')) against
+// A_ref's (outputs whose reference sigma is below 1e-12 of their largest skipped).
+double sigma_error(const Eigen::MatrixXd& A, const Eigen::MatrixXd& A_ref,
+                   const Eigen::MatrixXd& H) {
+  const Eigen::VectorXd v = (H * A * H.transpose()).diagonal();
+  const Eigen::VectorXd r = (H * A_ref * H.transpose()).diagonal();
+  double worst = 0.0;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (r(i) > 0.0)
+      worst = std::max(worst, std::abs(std::sqrt(std::max(v(i), 0.0)) / std::sqrt(r(i)) - 1.0));
+  return worst;
+}
+
+// The filter's prior covariance from F: F P F' + Q_d, Q_d the EKF's trapezoidal
+// (dt / 2)(F Qc F' + Qc), Qc diagonal.
+Eigen::MatrixXd prior_covariance(const std::vector<double>& F, const Eigen::MatrixXd& P,
+                                 const std::vector<double>& qc, double dt) {
+  const auto n = static_cast<Eigen::Index>(qc.size());
+  const Eigen::Map<const Eigen::MatrixXd> Fm(F.data(), n, n);
+  Eigen::MatrixXd Qc = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    Qc(i, i) = qc[static_cast<std::size_t>(i)] * qc[static_cast<std::size_t>(i)];
+  return Fm * P * Fm.transpose() + 0.5 * dt * (Fm * Qc * Fm.transpose() + Qc);
+}
+
+// The prior covariance's error in units of itself: the largest |eigenvalue| of
+// L^-1 (A - A_ref) L^-T, L L' = A_ref. 0.01: every direction's predicted variance within 1 %.
+double covariance_error(const Eigen::MatrixXd& A, const Eigen::MatrixXd& A_ref) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(A_ref);
+  if (llt.info() != Eigen::Success) return std::nan("");
+  Eigen::MatrixXd D = A - A_ref;
+  llt.matrixL().solveInPlace(D);
+  Eigen::MatrixXd W = D.transpose();
+  llt.matrixL().solveInPlace(W);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (W + W.transpose()),
+                                                           Eigen::EigenvaluesOnly);
+  return eig.eigenvalues().cwiseAbs().maxCoeff();
+}
 
 // Error of F against Fref (n x n, column-major) on D^-1 F D, D = diag(scale).
 FError f_error(const std::vector<double>& F, const std::vector<double>& Fref,
@@ -196,14 +253,21 @@ struct Race {
         F_fd[j * n + i] = (xp[i] - base[i]) / h;
     }
     t_fd.push_back(ms_since(t0));
-    std::vector<double> f(n), J(n * n);
+    // Each evaluation at a state of its own (the first state nudged by 1e-12 relative), as in an
+    // integration: the model's caches (pressure solve, cell jets) hold only the state before.
+    std::vector<double> f(n), J(n * n), xn(x0.begin(), x0.end());
+    const auto nudge = [&] { xn[0] *= 1.0 + 1e-12; };
     const auto t1 = Clock::now();
-    for (int k = 0; k < 3; ++k)
-      model.rhs_jacobian(x0, u, f, J);
+    for (int k = 0; k < 3; ++k) {
+      nudge();
+      model.rhs_jacobian(xn, u, f, J);
+    }
     t_jac.push_back(ms_since(t1) / 3.0);
     const auto t2 = Clock::now();
-    for (int k = 0; k < 10; ++k)
-      model.rhs(x0, u, f);
+    for (int k = 0; k < 10; ++k) {
+      nudge();
+      model.rhs(xn, u, f);
+    }
     t_rhs.push_back(ms_since(t2) / 10.0);
   }
 
@@ -220,24 +284,46 @@ struct Case {
   FError direct, newton, fd, between;  // against the reference; direct against Newton
 };
 
-// F's errors against the reference from x0; race.time() must have run from x0 first.
-bool errors(Race& race, std::span<const double> x0, std::span<const double> u, Case& c) {
+// F's errors against the reference from x0, and what they do to the prior covariance from the
+// filter's covariance P; race.time() must have run from x0 first.
+bool errors(Race& race, std::span<const double> x0, std::span<const double> u,
+            const Eigen::MatrixXd& P, const std::vector<double>& qc, Case& c) {
   if (!race.run(race.reference, x0, u, race.F_ref, nullptr)) return false;
   c.direct = f_error(race.F_direct, race.F_ref, race.scale);
   c.newton = f_error(race.F_newton, race.F_ref, race.scale);
   c.fd = f_error(race.F_fd, race.F_ref, race.scale);
   c.between = f_error(race.F_direct, race.F_newton, race.scale);
+  const Eigen::MatrixXd A_ref = prior_covariance(race.F_ref, P, qc, race.period);
+  const auto n = static_cast<Eigen::Index>(race.n);
+  Eigen::MatrixXd H(static_cast<Eigen::Index>(race.model.num_outputs()), n);
+  std::vector<double> y(race.model.num_outputs());
+  if (race.model.output_jacobian(race.x, u, y, {H.data(), static_cast<std::size_t>(H.size())}) !=
+      plant::kModelOk)
+    return false;
+  const auto both = [&](const std::vector<double>& F, FError& e) {
+    const Eigen::MatrixXd A = prior_covariance(F, P, qc, race.period);
+    e.covariance = covariance_error(A, A_ref);
+    e.sigma = sigma_error(A, A_ref, H);
+  };
+  both(race.F_direct, c.direct);
+  both(race.F_newton, c.newton);
+  both(race.F_fd, c.fd);
   return true;
 }
 
 void print_case(const Case& c, bool has_choice) {
-  char d[48] = "n/a", b[48] = "n/a";
-  if (has_choice) {
-    std::snprintf(d, sizeof d, "%.1e / %.1e", c.direct.frobenius, c.direct.max_column);
+  const auto cell = [](const FError& e) {
+    char t[64];
+    std::snprintf(t, sizeof t, "%.0e/%.0e/%.0e/%.0e", e.frobenius, e.max_column, e.covariance,
+                  e.sigma);
+    return std::string(t);
+  };
+  char b[48] = "n/a";
+  if (has_choice)
     std::snprintf(b, sizeof b, "%.1e / %.1e", c.between.frobenius, c.between.max_column);
-  }
-  std::printf("  %-38s %19s %11.1e / %.1e %11.1e / %.1e %19s\n", c.name.c_str(), d,
-              c.newton.frobenius, c.newton.max_column, c.fd.frobenius, c.fd.max_column, b);
+  std::printf("  %-38s %27s %27s %27s %19s\n", c.name.c_str(),
+              has_choice ? cell(c.direct).c_str() : "n/a", cell(c.newton).c_str(),
+              cell(c.fd).c_str(), b);
 }
 
 }  // namespace
@@ -259,10 +345,15 @@ int main(int argc, char** argv) {
       every = std::max(1, std::atoi(next().c_str()));
     } else if (a == "--sens-tol") {
       g_sens_tol = std::atof(next().c_str());
+    } else if (a == "--reuse-jacobians") {
+      g_reuse_jacobians = true;
+    } else if (a == "--max-step") {
+      g_max_step = std::atof(next().c_str());
     } else {
       std::fprintf(
           stderr,
-          "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n");
+          "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n"
+          "                  [--reuse-jacobians] [--max-step S]\n");
       return 2;
     }
   }
@@ -273,7 +364,9 @@ int main(int argc, char** argv) {
   est::EkfOptions eo;
   eo.constrained = true;
   set_sensitivity_tolerance(eo.integrator);
-  est::Ekf ekf(*model, bench::layout_process_noise(*model), bench::kMeasured.size(), eo);
+  const std::vector<double> qc = bench::layout_process_noise(*model);
+  est::Ekf ekf(*model, qc, bench::kMeasured.size(), eo);
+  Eigen::MatrixXd P_prior;
   Race race(*model, period);
   std::printf("race_bench: %.2f simulated hours, period %.0f s, filter model n = %zu states%s\n",
               hours, period, n,
@@ -303,6 +396,7 @@ int main(int argc, char** argv) {
       continue;
     }
     std::copy(ekf.state().data(), ekf.state().data() + n, xprior.begin());
+    P_prior = ekf.covariance();
     race.time(xprior, u);
     const auto t0 = Clock::now();
     ekf.predict(u, period);
@@ -320,11 +414,13 @@ int main(int argc, char** argv) {
     const bool after_big_move = last_move > largest_move;
     if (speed_step || valve_step || after_big_move || k % every == 0) {
       Case c{"", {}, {}, {}, {}};
-      if (errors(race, xprior, u, c)) {
+      if (errors(race, xprior, u, P_prior, qc, c)) {
         ++checked;
         const auto keep_worst = [](FError& w, const FError& e) {
           w.frobenius = std::max(w.frobenius, e.frobenius);
           w.max_column = std::max(w.max_column, e.max_column);
+          w.covariance = std::max(w.covariance, e.covariance);
+          w.sigma = std::max(w.sigma, e.sigma);
         };
         keep_worst(worst.direct, c.direct);
         keep_worst(worst.newton, c.newton);
@@ -362,7 +458,7 @@ int main(int argc, char** argv) {
     race.time(xs, u0);
     race.drop_last_timings(1);  // the loop's periods are the timing sample
     Case c{"steady state (settled 1 h)", {}, {}, {}, {}};
-    if (errors(race, xs, u0, c)) cases.push_back(c);
+    if (errors(race, xs, u0, ekf.covariance(), qc, c)) cases.push_back(c);
   }
   cases.push_back(moved);
   cases.push_back(worst);
@@ -395,7 +491,8 @@ int main(int argc, char** argv) {
 
   std::printf(
       "\nF error against the reference (%d periods checked; Frobenius / max entry rel. to "
-      "column)\n  %-38s %19s %21s %21s %19s\n",
+      "column / the prior covariance F P F' + Q_d's, in units of itself / the outputs' sigma, "
+      "relative)\n  %-38s %27s %27s %27s %19s\n",
       checked, "case", "direct (default)", "CVODES Newton", "finite differences",
       "direct vs Newton");
   for (const auto& c : cases)
