@@ -11,6 +11,7 @@
 #include "daemon/estimation/enkf.hpp"
 #include "daemon/runtime/clock.hpp"
 #include "plant_models/catalog.hpp"
+#include "plant_models/core/settling.hpp"
 
 namespace hvac_twin::runtime {
 namespace {
@@ -141,8 +142,6 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
 
   guess_x_.assign(layout.states.size(), 0.0);
   guess_y_.assign(layout.outputs.size(), 0.0);
-  if (unit_.estimator.settle_s > 0.0)
-    settler_ = std::make_unique<plant::Integrator>(*model_, plant::IntegratorOptions{});
   samples_.resize(unit_.points.size());
   u_.assign(layout.inputs.size(), 0.0);
   u_prev_ = u_;
@@ -244,11 +243,10 @@ void UnitPipeline::initialize() {
   const bool guessed = model_->initial_guess(u_, guess_y_, guess_x_);
   for (std::size_t i = 0; i < guess_x_.size(); ++i)
     if (!guessed || configured_x0_[i]) guess_x_[i] = x0_[i];
-  if (settler_) {
-    std::vector<double>& x = guess_x_;
-    if (!settler_->step(x, u_, unit_.estimator.settle_s, {}).ok())
-      log_->warn("unit {}: the model did not settle from its initial guess: {}", unit_.id,
-                 settler_->last_error());
+  if (unit_.estimator.settle_s > 0.0) {
+    std::string error;
+    if (!plant::settle(*model_, u_, unit_.estimator.settle_s, guess_x_, &error))
+      log_->warn("unit {}: the model did not settle from its initial guess: {}", unit_.id, error);
   }
   // Bad-data guard: the filter never starts from a non-finite guess (a failed settle or guess).
   if (!std::all_of(guess_x_.begin(), guess_x_.end(), [](double v) { return std::isfinite(v); })) {

@@ -139,7 +139,6 @@ class UnitPipeline {
   std::vector<double> x0_, std0_;
   std::vector<bool> configured_x0_;  // initial_state given by the configuration (kept as is)
   std::vector<double> guess_x_, guess_y_;
-  std::unique_ptr<plant::Integrator> settler_;  // plain integrator for estimator.settle_s
   std::vector<InputBinding> inputs_;
   std::vector<MeasuredBinding> measured_;
   std::vector<modbus::PointSample> samples_;

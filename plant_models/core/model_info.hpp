@@ -51,6 +51,9 @@ struct StateInfo {
   // (the weighed-in charge) are held at their known values, considered afterwards (see
   // daemon/estimation/commissioning.hpp). Implies consider outside commissioning.
   bool calibrate = false;
+  // A slow state an initial guess takes from the measured conditions (a zone's temperatures):
+  // held there while the model settles (plant_models/core/settling.hpp).
+  bool held_while_settling = false;
 };
 
 struct SignalInfo {

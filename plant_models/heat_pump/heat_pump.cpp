@@ -266,6 +266,7 @@ ModelLayout HeatPumpR32::make_layout() const {
   set(L_.t_air, "T_air", "degC", -40.0, 70.0, 1.0, 1e-3, 1e-6, false, "zone air temperature");
   set(L_.t_mass, "T_mass", "degC", -40.0, 70.0, 3.0, 5e-4, 1e-6, false,
       "building-mass temperature");
+  l.states[L_.t_air].held_while_settling = l.states[L_.t_mass].held_while_settling = true;
   if (L_.q_int != hp::kNone)
     set(L_.q_int, "Q_int", "W", -2000.0, 20000.0, 300.0, 1.0, 1e-3, true,
         "internal heat gains (random walk)");

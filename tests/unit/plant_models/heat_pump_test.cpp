@@ -8,6 +8,7 @@
 
 #include "finite_difference.hpp"
 #include "heat_pump_fixture.hpp"
+#include "plant_models/core/settling.hpp"
 #include "plant_models/heat_pump/hp_cell_ends.hpp"
 #include "plant_models/refrigerant/r32_eos.hpp"
 #include "plant_models/refrigerant/r32_smooth.hpp"
@@ -161,6 +162,33 @@ TEST_CASE("the cell jets a Jacobian keeps change neither f nor the next Jacobian
   INFO("f: " << df << " relative; Jacobian: " << dj / jmax << " of its largest entry");
   CHECK(df < 1e-10);
   CHECK(dj <= 1e-12 * jmax);
+}
+
+TEST_CASE("settling holds the zone at its measured temperatures and brings the cycle to rest",
+          "[heat_pump][settling]") {
+  const HeatPumpRig rig;
+  const auto& m = *rig.model;
+  const auto& L = rig.hp->slots();
+  const auto u = nominal_inputs();
+  std::vector<double> y(m.num_outputs(), std::nan(""));
+  y[kZoneAirTemperature] = 25.5;
+  std::vector<double> x(m.num_states());
+  REQUIRE(m.initial_guess(u, y, x));
+  auto free = x;
+  std::string error;
+  REQUIRE(plant::settle(m, u, 600.0, x, &error));
+  CHECK(x[L.t_air] == 25.5);
+  CHECK(x[L.t_mass] == free[L.t_mass]);
+  // Negative control: integrated without the hold, the zone cools by more than 0.5 K.
+  rig.run(free, u, 600.0);
+  CHECK(free[L.t_air] < 25.0);
+  // The refrigerant side is at rest: no enthalpy moves faster than 0.01 kJ/kg per second.
+  std::vector<double> xdot(m.num_states());
+  REQUIRE(m.rhs(x, u, xdot) == 0);
+  for (std::size_t k = 0; k < L.cells; ++k) {
+    CHECK(std::abs(xdot[L.h_cond[k]]) < 0.01);
+    CHECK(std::abs(xdot[L.h_evap[k]]) < 0.01);
+  }
 }
 
 namespace {
