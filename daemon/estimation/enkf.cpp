@@ -175,7 +175,16 @@ StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {
   counters_.predict_failures += failed;
   if (failed == N_) return StepStatus::kModelError;
   statistics();
+  // Inflation makes up for the spread the updates take out, so a consider state, which no update
+  // touches, keeps its own: inflated too, its spread grew by 2 % a cycle without bound (the heat
+  // pump's parameters, held through the settling phase, 5x their prior in 80 cycles; then the
+  // members' models failed).
   X_ = (anomalies_ * options_.inflation).colwise() + mean_;
+  for (std::size_t j = 0; j < n_; ++j)
+    if (consider_[j] != 0) {
+      const auto r = static_cast<Eigen::Index>(j);
+      X_.row(r) = anomalies_.row(r).array() + mean_(r);
+    }
   statistics();
   return X_.allFinite() ? StepStatus::kOk : StepStatus::kModelError;
 }
@@ -346,8 +355,8 @@ void ConstrainedEnkf::constrain(std::span<const double> u) {
   if (active_count_ > 0) ++counters_.constrained_updates;
 }
 
-int ConstrainedEnkf::output_estimates(std::span<const double> u, std::span<double> y,
-                                      std::span<double> sigma) {
+int ConstrainedEnkf::filter_output_estimates(std::span<const double> u, std::span<double> y,
+                                             std::span<double> sigma) {
   if (!evaluate_outputs(u)) return plant::kModelRecoverable;
   const double inv = 1.0 / static_cast<double>(N_ - 1);
   for (std::size_t o = 0; o < m_ && o < y.size(); ++o) {

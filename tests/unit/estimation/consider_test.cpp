@@ -69,6 +69,28 @@ TEST_CASE("an EnKF update leaves a consider state's members where they were", "[
   CHECK((enkf.members().row(0) - before.row(0)).norm() > 0.0);
 }
 
+TEST_CASE("an EnKF predict inflates the estimated states' spread, not a consider state's",
+          "[consider][enkf]") {
+  const plant::AdModel<test::OffsetSensor> model(test::OffsetSensor{});
+  est::EnkfOptions o;
+  o.members = 64;
+  o.threads = 1;
+  o.inflation = 1.1;
+  est::ConstrainedEnkf enkf(model, std::vector<double>{0.0, 0.0}, 1, o);
+  REQUIRE(enkf.considered(1));
+  enkf.reset(std::vector<double>{0.0, 0.0}, std::vector<double>{1.0, 1.0});
+  const Eigen::MatrixXd before = enkf.members();
+  for (int k = 0; k < 20; ++k)
+    REQUIRE(enkf.predict({}, 1.0) == est::StepStatus::kOk);
+  // No process noise: the estimated state's spread grows by the inflation, 1.1^20 = 6.7; the
+  // consider state's stays where it was (it grew the same way before the fix).
+  const auto spread = [](const Eigen::MatrixXd& X, Eigen::Index r) {
+    return std::sqrt((X.row(r).array() - X.row(r).mean()).square().mean());
+  };
+  CHECK(spread(enkf.members(), 0) == Approx(std::pow(1.1, 20) * spread(before, 0)).epsilon(1e-9));
+  CHECK(spread(enkf.members(), 1) == Approx(spread(before, 1)).epsilon(1e-9));
+}
+
 namespace {
 
 // A part and the whole it belongs to: x' = c' = 0, y = x, and x <= c. The whole c is a consider
