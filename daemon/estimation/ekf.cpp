@@ -254,7 +254,8 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
       P_(row, c) = b_(row, c) - bh_(row) * k_(c) + r * k_(row) * k_(c);
 }
 
-int Ekf::output_estimates(std::span<const double> u, std::span<double> y, std::span<double> sigma) {
+int Ekf::filter_output_estimates(std::span<const double> u, std::span<double> y,
+                                 std::span<double> sigma) {
   const int status = model_.output_jacobian(span_of(x_), u, y, span_of(H_));
   if (status != plant::kModelOk) return status;
   for (std::size_t r = 0; r < m_ && r < sigma.size(); ++r) {

@@ -77,8 +77,8 @@ class Ekf final : public Estimator {
 
   // Every model output at the current estimate with its standard deviation from the delta
   // method, σ² = H P Hᵀ.
-  int output_estimates(std::span<const double> u, std::span<double> y,
-                       std::span<double> sigma) override;
+  int filter_output_estimates(std::span<const double> u, std::span<double> y,
+                              std::span<double> sigma) override;
 
   [[nodiscard]] const Eigen::VectorXd& state() const override { return x_; }
   [[nodiscard]] const Eigen::MatrixXd& covariance() const override { return P_; }

@@ -65,8 +65,8 @@ class ConstrainedEnkf final : public Estimator {
   StepStatus predict(std::span<const double> u, double dt) override;
   StepStatus update(std::span<const Measurement> z, std::span<const double> u,
                     std::span<MeasurementReport> reports) override;
-  int output_estimates(std::span<const double> u, std::span<double> y,
-                       std::span<double> sigma) override;
+  int filter_output_estimates(std::span<const double> u, std::span<double> y,
+                              std::span<double> sigma) override;
 
   [[nodiscard]] const Eigen::VectorXd& state() const override { return mean_; }
   [[nodiscard]] const Eigen::MatrixXd& covariance() const override { return P_; }

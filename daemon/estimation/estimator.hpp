@@ -95,9 +95,23 @@ class Estimator {
   // Tests and fuses z, one report per measurement; slot i of z is the same sensor every cycle.
   virtual StepStatus update(std::span<const Measurement> z, std::span<const double> u,
                             std::span<MeasurementReport> reports) = 0;
-  // Every model output at the estimate with its standard deviation.
-  virtual int output_estimates(std::span<const double> u, std::span<double> y,
-                               std::span<double> sigma) = 0;
+  // Every model output at the estimate with its standard deviation: the filter's own (its
+  // covariance, or its ensemble's spread) and the model's structural error in that output
+  // (SignalInfo::model_error, model_error_rel) in quadrature. filter_sigma, when given, receives
+  // the filter's own part alone: what a comparison of the estimate with itself at another time
+  // needs (the leak detector's charge against its reference), where a structural error that
+  // does not change cancels.
+  int output_estimates(std::span<const double> u, std::span<double> y, std::span<double> sigma,
+                       std::span<double> filter_sigma = {}) {
+    const int status = filter_output_estimates(u, y, sigma);
+    if (status != 0) return status;
+    for (std::size_t o = 0; o < filter_sigma.size() && o < sigma.size(); ++o)
+      filter_sigma[o] = sigma[o];
+    for (std::size_t o = 0; o < model_error_.size() && o < y.size() && o < sigma.size(); ++o)
+      if (model_error_[o] > 0.0 || model_error_rel_[o] > 0.0)
+        sigma[o] = std::hypot(sigma[o], model_error_[o], model_error_rel_[o] * std::abs(y[o]));
+    return status;
+  }
 
   [[nodiscard]] virtual const Eigen::VectorXd& state() const = 0;
   [[nodiscard]] virtual const Eigen::MatrixXd& covariance() const = 0;
@@ -120,13 +134,26 @@ class Estimator {
   }
 
  protected:
-  // Sizes the consider flags from the model's layout (constructors; allocates).
+  // The filter's own estimate of every output and its standard deviation, without the model's
+  // structural error (output_estimates adds it).
+  virtual int filter_output_estimates(std::span<const double> u, std::span<double> y,
+                                      std::span<double> sigma) = 0;
+
+  // Sizes the consider flags and the outputs' structural errors from the model's layout
+  // (constructors; allocates).
   void init_consider(const plant::ModelLayout& layout) {
     consider_.assign(layout.states.size(), 0);
     for (std::size_t i = 0; i < layout.states.size(); ++i)
       consider_[i] = layout.states[i].consider ? 1 : 0;
+    model_error_.clear();
+    model_error_rel_.clear();
+    for (const auto& o : layout.outputs) {
+      model_error_.push_back(o.model_error);
+      model_error_rel_.push_back(o.model_error_rel);
+    }
   }
   std::vector<char> consider_;
+  std::vector<double> model_error_, model_error_rel_;  // per output
 
   // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A
   // checkpoint has already been checked by its loader; this guards every other caller.

@@ -146,7 +146,7 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   u_.assign(layout.inputs.size(), 0.0);
   u_prev_ = u_;
   y_.assign(layout.outputs.size(), 0.0);
-  sigma_ = y_;
+  sigma_ = filter_sigma_ = y_;
   z_.resize(measured_.size());
   reports_.resize(measured_.size());
 
@@ -313,7 +313,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   }
 
   const bool estimates_valid =
-      initialized_ && filter_->output_estimates(u_, y_, sigma_) == plant::kModelOk;
+      initialized_ && filter_->output_estimates(u_, y_, sigma_, filter_sigma_) == plant::kModelOk;
   if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;
   out.quality = !estimates_valid ? dds::EstimateQuality::kNotReady
                 : flags & (dds::kFlagPredictOnly | dds::kFlagInputHeld | dds::kFlagNumericalReset |

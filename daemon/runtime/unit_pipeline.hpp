@@ -144,6 +144,7 @@ class UnitPipeline {
   std::vector<modbus::PointSample> samples_;
   modbus::DeviceStatus device_{};
   std::vector<double> u_, u_prev_, y_, sigma_;
+  std::vector<double> filter_sigma_;  // sigma_ without the model's structural error (leak detector)
   std::vector<est::Measurement> z_;
   std::vector<est::MeasurementReport> reports_;
 

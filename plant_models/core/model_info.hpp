@@ -63,6 +63,13 @@ struct SignalInfo {
   double max = std::numeric_limits<double>::infinity();
   double default_value = kRequired;  // inputs only: NaN means a point must provide it
   std::string description;
+  // Outputs only: the model's structural error in this output, what no state estimate removes
+  // (closures the model shares with no real unit exactly), as a standard deviation
+  // hypot(model_error, model_error_rel * |value|) [unit]. Estimators add it to the sigma they
+  // publish; zero for the outputs sensors measure (their representativeness error is the
+  // measurement noise's part).
+  double model_error = 0.0;
+  double model_error_rel = 0.0;
 };
 
 // A physical constraint  sum_k coeff_k v_k <= bound,  over states (linear in the state, exact)

@@ -30,6 +30,23 @@ struct RandomWalk {
   }
 };
 
+// A random walk with a second output, twice the state, that the model gets wrong by a
+// structural error of 0.3 + 10 % (SignalInfo::model_error, model_error_rel).
+struct StructuralError : RandomWalk {
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l = RandomWalk::layout();
+    l.outputs.push_back(plant::SignalInfo{
+        .name = "twice", .unit = "1", .model_error = 0.3, .model_error_rel = 0.1});
+    return l;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0];
+    y[1] = 2.0 * x[0];
+    return plant::kModelOk;
+  }
+};
+
 // x' = 0, y = sqrt(x): at x = 0 the output Jacobian is infinite, which poisons an update.
 struct SqrtSensor : RandomWalk {
   template <class S>
@@ -47,8 +64,8 @@ struct OffsetSensor {
   plant::ModelLayout layout() const {
     plant::ModelLayout l;
     l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
-    l.states.push_back(plant::StateInfo{
-        .name = "b", .unit = "1", .abs_tol = 1e-10, .consider = !estimate_offset});
+    l.states.push_back(
+        plant::StateInfo{.name = "b", .unit = "1", .abs_tol = 1e-10, .consider = !estimate_offset});
     l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
     return l;
   }
