@@ -104,6 +104,10 @@ struct EstimatorConfig {
                                        // most points rejected this often resets the covariance
   double settle_s = 0.0;  // model seconds the model runs at the first inputs before filtering
                           // starts from its initial guess [s]
+  // After a cold start (or a restart from the measured conditions) the augmented states (slow
+  // parameters, disturbances) are held at their priors for this many model seconds, while the
+  // physical states converge onto the measurements [s].
+  double parameter_hold_s = 600.0;
   int checkpoint_every_cycles = 60;  // the whole filter state is saved to state_directory every
                                      // this many cycles; 0: never (always a cold start)
   // The consistency monitor's window (mean NIS against its chi-square band) [s, model time]:

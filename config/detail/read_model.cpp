@@ -160,6 +160,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.integer("max_consecutive_rejections", e.max_consecutive_rejections, 1,
             kMaxConsecutiveRejections);
   r.number("settle_s", e.settle_s, closed(0.0, kMaxPeriodS), false, "s");
+  r.number("parameter_hold_s", e.parameter_hold_s, closed(0.0, kMaxPeriodS), false, "s");
   r.choice("type", e.type, std::span<const std::string_view>(kEstimatorTypeNames),
            std::span<const EstimatorType>(kEstimatorTypes));
   r.integer("ensemble_members", e.ensemble_members, 4, 1000);

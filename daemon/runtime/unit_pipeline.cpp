@@ -232,17 +232,33 @@ void UnitPipeline::note_refusal(bool& refusing, bool refused, const std::string&
 
 // The first state: the configuration's initial values where it gives them, otherwise the
 // model's own guess at the first inputs and measurements (or the layout's defaults), settled
-// for estimator.settle_s model seconds at the first inputs.
+// for estimator.settle_s model seconds at the first inputs; or the last checkpoint.
 void UnitPipeline::initialize() {
+  start_from_measurements(0.0);
+  model_time_s_ = 0.0;
+  initialized_ = true;
+  have_prev_ = false;
+  cold_start_ = !(checkpoints_ && resume_from_checkpoint());
+  if (cold_start_) {
+    log_->info("unit {}: estimator started{}", unit_.id,
+               guessed_ ? " from the model's guess at the measured conditions" : "");
+  } else {
+    phases_.reset();  // a resumed filter has its parameters: nothing to hold
+    for (std::size_t i = 0; i < filter_->num_states(); ++i)
+      filter_->set_consider(i, model_->layout().states[i].consider);
+  }
+}
+
+void UnitPipeline::start_from_measurements(double model_time_s) {
   std::fill(guess_y_.begin(), guess_y_.end(), std::numeric_limits<double>::quiet_NaN());
   for (const auto& b : measured_) {
     const auto& s = samples_[b.point];
     const double v = b.to_model.apply(s.value);
     if (s.quality == modbus::PointQuality::kGood && usable(v, b.min, b.max)) guess_y_[b.output] = v;
   }
-  const bool guessed = model_->initial_guess(u_, guess_y_, guess_x_);
+  guessed_ = model_->initial_guess(u_, guess_y_, guess_x_);
   for (std::size_t i = 0; i < guess_x_.size(); ++i)
-    if (!guessed || configured_x0_[i]) guess_x_[i] = x0_[i];
+    if (!guessed_ || configured_x0_[i]) guess_x_[i] = x0_[i];
   if (unit_.estimator.settle_s > 0.0) {
     std::string error;
     if (!plant::settle(*model_, u_, unit_.estimator.settle_s, guess_x_, &error))
@@ -254,13 +270,11 @@ void UnitPipeline::initialize() {
     std::copy(x0_.begin(), x0_.end(), guess_x_.begin());
   }
   filter_->reset(guess_x_, std0_);
-  model_time_s_ = 0.0;
-  initialized_ = true;
-  have_prev_ = false;
-  cold_start_ = !(checkpoints_ && resume_from_checkpoint());
-  if (cold_start_)
-    log_->info("unit {}: estimator started{}", unit_.id,
-               guessed ? " from the model's guess at the measured conditions" : "");
+  failed_predictions_ = 0;
+  phases_from_s_ = model_time_s;
+  phases_ = std::make_unique<est::StatePhases>(model_->layout(), std::vector<est::KnownState>{},
+                                               unit_.estimator.parameter_hold_s, 0.0);
+  phases_->apply(*filter_, 0.0);
 }
 
 void UnitPipeline::fault_hooks(std::uint64_t cycle) {
@@ -288,10 +302,23 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     if (have_prev_) {
       // dt from the tick stamps: skipped ticks advance the model by more than one period.
       const double dt = period_s_ * static_cast<double>(tick.ticks_since_last);
+      if (phases_) phases_->apply(*filter_, model_time_s_ - phases_from_s_);
       const est::StepStatus st = filter_->predict(u_prev_, dt);
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
       if (st == est::StepStatus::kModelError) flags |= dds::kFlagPredictOnly;
       model_time_s_ += dt;
+      failed_predictions_ = st == est::StepStatus::kModelError ? failed_predictions_ + 1 : 0;
+      if (failed_predictions_ >= kRestartAfterFailedPredictions) {
+        // Lost: the model cannot integrate from the estimate (kept by every failed prediction),
+        // and no update brought it back. Start again from the measured conditions.
+        ++restarts_;
+        log_->warn(
+            "unit {}: {} predictions in a row failed; the estimator restarts from the measured "
+            "conditions (restart {} since start-up)",
+            unit_.id, failed_predictions_, restarts_);
+        start_from_measurements(model_time_s_);
+        flags |= dds::kFlagNumericalReset;
+      }
     }
     fault_hooks(tick.index);
     fused_points_ = 0;

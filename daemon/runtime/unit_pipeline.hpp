@@ -19,6 +19,7 @@
 
 #include "config/config.hpp"
 #include "config/units.hpp"
+#include "daemon/estimation/commissioning.hpp"
 #include "daemon/estimation/consistency_monitor.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
@@ -135,6 +136,10 @@ class UnitPipeline {
   std::unique_ptr<dds::UnitPublisher> publisher_;
 
   void initialize();
+  // The filter from the model's guess at the current measured conditions (the first cycle, and
+  // a filter whose predictions kept failing), with the augmented states held for
+  // estimator.parameter_hold_s from `model_time_s`.
+  void start_from_measurements(double model_time_s);
 
   std::vector<double> x0_, std0_;
   std::vector<bool> configured_x0_;  // initial_state given by the configuration (kept as is)
@@ -154,9 +159,19 @@ class UnitPipeline {
   // speed input).
   std::unique_ptr<est::LeakDetector> leak_;
   std::size_t leak_output_ = 0, charge_output_ = 0, speed_input_ = 0;
-  double nameplate_charge_ = 0.0;      // [kg], the charge state's initial value
-  double false_alarm_days_ = 0.0;      // designed, published with every diagnostic
-  double model_time_s_ = 0.0;          // model time since the filter started [s]
+  double nameplate_charge_ = 0.0;  // [kg], the charge state's initial value
+  double false_alarm_days_ = 0.0;  // designed, published with every diagnostic
+  double model_time_s_ = 0.0;      // model time since the filter started [s]
+  // Augmented states held (considered) after a start until this model time [s] (est::StatePhases).
+  std::unique_ptr<est::StatePhases> phases_;
+  double phases_from_s_ = 0.0;  // the model time the phases count from [s]
+  int failed_predictions_ = 0;  // in a row
+  // A filter whose predictions failed this many cycles in a row is lost (each failure keeps the
+  // estimate the model cannot integrate from) and restarts from the measured conditions. Seen
+  // on the heat pump before the parameter hold: 40 failed cycles in a row from the third.
+  static constexpr int kRestartAfterFailedPredictions = 6;
+  bool guessed_ = false;               // the last start used the model's own initial guess
+  std::uint64_t restarts_ = 0;         // from the measured conditions, since start-up
   std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began
   std::int64_t leak_since_ns_ = 0;     // wall time of the first LEAK in this episode
   est::LeakState last_leak_state_ = est::LeakState::kNormal;  // the last one logged
