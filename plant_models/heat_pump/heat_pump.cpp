@@ -366,6 +366,34 @@ ModelLayout HeatPumpR32::make_layout() const {
   out(kInternalGains, "internal_gains", "W", -2000, 20000, "internal heat gains");
   out(kOutdoorCoilFouling, "outdoor_coil_fouling", "1", 0, 2,
       "outdoor-coil air-side UA factor (1 = clean)");
+
+  // Structural errors of the virtual sensors: what the model's closures and cells leave in an
+  // output however well its state is known (plant_models/README.md, "Honest sigma"), one sigma,
+  // absolute and relative in quadrature. From the filter's errors against the benchmark truths
+  // (estimation_bench: converged cells, Smith void fraction, other two-phase correlations; with
+  // and without parameter mismatch), the share of each error its own sigma does not explain:
+  //  - charge 4 %: the refrigerant the model holds at given pressures and temperatures rests on
+  //    its void-fraction closure; with Smith's instead of Zivi's the same measurements mean 3-4 %
+  //    less charge whatever the filter estimates (no sensor tells a void fraction from a charge);
+  //  - superheat 0.5 K: the evaporator's dryout and superheated zone, a few cells at the outlet
+  //    whose heat transfer falls with quality by a correlation (dryout from x 0.75 or 0.8);
+  //  - subcooling 0.1 K, valve-inlet enthalpy 0.2 kJ/kg: the subcooled zone's length between the
+  //    condensing and single-phase heat transfer;
+  //  - cooling capacity and COP 0.3 %, heat flows 0.5 %, condenser-outlet pressure 0.05 % (a
+  //    twentieth of the coil's friction drop): air-side and friction closures.
+  const auto structural = [&](hp::Output o, double abs, double rel) {
+    l.outputs[o].model_error = abs;
+    l.outputs[o].model_error_rel = rel;
+  };
+  structural(kCharge, 0.0, 0.04);
+  structural(kSuperheat, 0.5, 0.0);
+  structural(kSubcooling, 0.1, 0.0);
+  structural(kValveInletEnthalpy, 0.2, 0.0);
+  structural(kCondenserHeatFlow, 0.0, 0.005);
+  structural(kEvaporatorHeatFlow, 0.0, 0.005);
+  structural(kCoolingCapacity, 0.0, 0.003);
+  structural(kCop, 0.0, 0.003);
+  structural(kCondenserOutletPressure, 0.0, 0.0005);
   return l;
 }
 

@@ -2,7 +2,8 @@
 //
 //   estimation_bench [--short] [--hours H] [--period S] [--truth nominal|mismatched|bias|all]
 //                    [--filters ekf,cekf,enkf] [--members N] [--threads T]
-//                    [--set PARAM=V] [--q STATE=V] [--consider STATE=0|1] [--noise-factor F]
+//                    [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1]
+//                    [--noise-factor F]
 //                    [--commission H] [--csv FILE] [--svg FILE]
 // --set, --q, --consider change the filters' model parameters, random walks and consider flags
 // from the design the daemon runs; --noise-factor sets the factor on the R the filters are told
@@ -25,7 +26,8 @@
 //  - whether sigma is true: for each virtual sensor and the charge, the RMS of (estimate -
 //    truth) / sigma and the share within 2 sigma (aim 90-98 %);
 //  - per measured point: time-averaged NIS and the share the gate rejected (aim <= 5 %);
-//  - NIS over all points and NEES on the states filter and truth share, against their 95 %
+//  - NIS over all points and NEES on the physical quantities filter and truth share as published
+//    (charge, valve-inlet enthalpy, zone air, building mass, internal gains), against their 95 %
 //    chi-square bands (aim: inside on the nominal truth, within 2x elsewhere);
 //  - step time (median, p99), its shares, against simulating the period.
 // The aims are printed with "met" or "MISSED"; the exit status only says every estimate was
@@ -93,15 +95,27 @@ bool parse(int argc, char** argv, Args& a) {
         a.truths = {bench::TruthKind::kSensorBias};
       else if (t != "all")
         return false;
-    } else if (s == "--set" || s == "--q" || s == "--consider") {
+    } else if (s == "--set" || s == "--q" || s == "--consider" || s == "--truth-set") {
       const std::string kv = next();
       const auto eq = kv.find('=');
       if (eq == std::string::npos) return false;
       const std::string key = kv.substr(0, eq);
       const double value = std::atof(kv.substr(eq + 1).c_str());
       if (s == "--set") bench::filter_parameters()[key] = value;
+      if (s == "--truth-set") bench::truth_overrides()[key] = value;
       if (s == "--q") bench::process_noise_overrides()[key] = value;
       if (s == "--consider") bench::consider_overrides()[key] = value != 0.0;
+    } else if (s == "--repr") {
+      const std::string kv = next();
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos) return false;
+      const plant::ModelLayout layout =
+          plant::create_model("heat_pump_r32", bench::filter_parameters())->layout();
+      std::size_t o = 0;
+      while (o < layout.outputs.size() && layout.outputs[o].name != kv.substr(0, eq))
+        ++o;
+      if (o == layout.outputs.size()) return false;
+      bench::representativeness()[o] = std::atof(kv.substr(eq + 1).c_str());
     } else if (s == "--commission") {
       bench::commissioning_s = 3600.0 * std::atof(next().c_str());
     } else if (s == "--noise-factor") {
@@ -175,7 +189,7 @@ void report(bench::TruthKind truth, const std::vector<FilterRun>& runs) {
       gated_ok = gated_ok && s.rejected_share() <= 0.05;
     }
     const auto [nis_lo, nis_hi] = bench::chi2_band(1.0, static_cast<double>(r.nis_count));
-    const double dof = static_cast<double>(bench::shared_states().size());
+    const double dof = static_cast<double>(bench::nees_outputs().size());
     const auto [nees_lo, nees_hi] = bench::chi2_band(dof, static_cast<double>(r.nees_count));
     const double factor = nominal ? 1.0 : 2.0;
     const bool nis_ok = nominal ? (r.nis() >= nis_lo && r.nis() <= nis_hi) : r.nis() <= 2.0;
@@ -203,42 +217,54 @@ void report(bench::TruthKind truth, const std::vector<FilterRun>& runs) {
   }
 }
 
-void write_traces(const Args& a, const std::vector<double>& times_h,
-                  const std::vector<double>& truth_p, const std::vector<double>& truth_h,
-                  const std::vector<FilterRun>& runs) {
+// The trace of one truth: per scored period the time, the compressor speed, and the truth's
+// value of every checked output (bench::checked_outputs()).
+struct Trace {
+  std::vector<double> times_h, speed;
+  std::vector<std::vector<double>> truth;  // [period][checked output]
+};
+
+void write_traces(const Args& a, const Trace& tr, const std::vector<FilterRun>& runs) {
+  const auto& checked = bench::checked_outputs();
   std::ofstream csv(a.csv_path);
-  csv << "t_h,truth_p_cond_out_Pa";
-  for (const auto& r : runs)
-    csv << ",p_cond_out_" << r.name;
-  csv << ",truth_h_valve_in_kJkg";
-  for (const auto& r : runs)
-    csv << ",h_valve_in_" << r.name;
+  csv << "t_h,compressor_speed_Hz";
+  for (std::size_t k = 0; k < checked.size(); ++k) {
+    const std::string name = runs.front().model->layout().outputs[checked[k]].name;
+    csv << ",truth_" << name;
+    for (const auto& r : runs)
+      csv << ',' << name << '_' << r.name << ",sigma_" << name << '_' << r.name;
+  }
   csv << '\n';
-  for (std::size_t i = 0; i < times_h.size(); ++i) {
-    csv << times_h[i] << ',' << truth_p[i];
-    for (const auto& r : runs)
-      csv << ',' << r.trace_p[i];
-    csv << ',' << truth_h[i];
-    for (const auto& r : runs)
-      csv << ',' << r.trace_h[i];
+  for (std::size_t i = 0; i < tr.times_h.size(); ++i) {
+    csv << tr.times_h[i] << ',' << tr.speed[i];
+    for (std::size_t k = 0; k < checked.size(); ++k) {
+      csv << ',' << tr.truth[i][k];
+      for (const auto& r : runs)
+        csv << ',' << r.trace[i][2 * k] << ',' << r.trace[i][2 * k + 1];
+    }
     csv << '\n';
   }
   const char* colours[] = {"#d62728", "#1f77b4", "#2ca02c"};
-  bench::Panel pp{"condenser-outlet pressure (unmeasured)", "kPa", {}};
-  bench::Panel ph{"expansion-valve inlet enthalpy (unmeasured)", "kJ/kg", {}};
-  std::vector<double> tp(truth_p.size());
-  std::transform(truth_p.begin(), truth_p.end(), tp.begin(), [](double v) { return v / 1e3; });
-  pp.series.push_back({"truth", "black", tp});
-  ph.series.push_back({"truth", "black", truth_h});
-  for (std::size_t f = 0; f < runs.size(); ++f) {
-    std::vector<double> p(runs[f].trace_p.size());
-    std::transform(runs[f].trace_p.begin(), runs[f].trace_p.end(), p.begin(),
-                   [](double v) { return v / 1e3; });
-    pp.series.push_back({runs[f].name, colours[f % 3], p});
-    ph.series.push_back({runs[f].name, colours[f % 3], runs[f].trace_h});
-  }
-  bench::write_svg(a.svg_path, "Estimates against the simulated truth", times_h, "time [h]",
-                   {pp, ph});
+  const auto panel = [&](const char* title, const char* unit, std::size_t output, double scale) {
+    std::size_t k = 0;
+    while (checked[k] != output)
+      ++k;
+    bench::Panel pn{title, unit, {}};
+    std::vector<double> v(tr.times_h.size());
+    for (std::size_t i = 0; i < v.size(); ++i)
+      v[i] = tr.truth[i][k] * scale;
+    pn.series.push_back({"truth", "black", v});
+    for (std::size_t f = 0; f < runs.size(); ++f) {
+      for (std::size_t i = 0; i < v.size(); ++i)
+        v[i] = runs[f].trace[i][2 * k] * scale;
+      pn.series.push_back({runs[f].name, colours[f % 3], v});
+    }
+    return pn;
+  };
+  bench::write_svg(
+      a.svg_path, "Estimates against the simulated truth", tr.times_h, "time [h]",
+      {panel("condenser-outlet pressure (unmeasured)", "kPa", kCondenserOutletPressure, 1e-3),
+       panel("expansion-valve inlet enthalpy (unmeasured)", "kJ/kg", kValveInletEnthalpy, 1.0)});
   std::printf("wrote %s and %s\n", a.csv_path.c_str(), a.svg_path.c_str());
 }
 
@@ -247,11 +273,12 @@ void write_traces(const Args& a, const std::vector<double>& times_h,
 int main(int argc, char** argv) {
   Args a;
   if (!parse(argc, argv, a)) {
-    std::fprintf(stderr,
-                 "usage: estimation_bench [--short] [--hours H] [--period S] "
-                 "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
-                 "[--threads T] [--set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
-                 "[--noise-factor F] [--commission H] [--csv FILE] [--svg FILE]\n");
+    std::fprintf(
+        stderr,
+        "usage: estimation_bench [--short] [--hours H] [--period S] "
+        "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
+        "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
+        "[--noise-factor F] [--commission H] [--csv FILE] [--svg FILE]\n");
     return 2;
   }
   std::printf(
@@ -268,7 +295,7 @@ int main(int argc, char** argv) {
     std::vector<FilterRun> runs;
     for (const auto& name : a.filters)
       runs.emplace_back(name, truth.model(), a.members, a.threads);
-    std::vector<double> times_h, truth_p, truth_h;
+    Trace trace;
     const int steps = static_cast<int>(a.hours * 3600.0 / a.period);
     const double warmup_s = 600.0;
     for (int k = 0; k < steps; ++k) {
@@ -286,16 +313,19 @@ int main(int argc, char** argv) {
       }
       const bool scoring = t + a.period >= warmup_s;
       if (scoring) {
-        times_h.push_back((t + a.period) / 3600.0);
-        truth_p.push_back(truth.y()[kCondenserOutletPressure]);
-        truth_h.push_back(truth.y()[kValveInletEnthalpy]);
+        trace.times_h.push_back((t + a.period) / 3600.0);
+        trace.speed.push_back(u[kCompressorSpeed]);
+        trace.truth.emplace_back();
+        for (const std::size_t o : bench::checked_outputs())
+          trace.truth.back().push_back(truth.y()[o]);
       }
       for (auto& r : runs) {
         r.step(u, truth, t, a.period, scoring);
         if (std::getenv("BENCH_TRACE") != nullptr && !r.step_ms.empty())
           std::printf("k %d %s step %.1f ms | charge %.4f (truth %.4f) M_cond %.4f (%.4f) %s\n", k,
                       r.name.c_str(), r.step_ms.back(), r.filter->state()(0), truth.x()[0],
-                      r.filter->state()(1), truth.x()[1], r.trace_line().c_str());
+                      r.filter->state()(1), truth.x()[1],
+                      r.trace_line(truth.y(), truth.x()).c_str());
       }
       if (k > 0 && k % static_cast<int>(1800.0 / a.period) == 0) {
         std::printf("  %s: %5.2f h simulated;", bench::truth_name(kind), (t + a.period) / 3600.0);
@@ -310,7 +340,7 @@ int main(int argc, char** argv) {
     for (const auto& r : runs)
       for (const auto& q : r.outputs)
         finite = finite && std::isfinite(q.mae());
-    if (kind == a.truths.front()) write_traces(a, times_h, truth_p, truth_h, runs);
+    if (kind == a.truths.front()) write_traces(a, trace, runs);
   }
   std::printf("%s\n", finite ? "PASS: every filter produced finite estimates"
                              : "FAIL: non-finite estimates");

@@ -84,6 +84,18 @@ inline const std::vector<std::string>& shared_states() {
                                           "T_air",  "T_mass", "Q_int"};
   return s;
 }
+// The NEES is taken on the physical quantities filter and truth share as the filter publishes
+// them, with the covariance it publishes: H P H' through the output Jacobian plus each one's
+// structural model error (SignalInfo::model_error). Not on the states themselves: the model's
+// charge and high-side mass are its own inventory, which its void-fraction closure sets apart
+// from the truth's by a structural offset no state covariance carries (the published charge's
+// sigma does).
+inline const std::vector<std::size_t>& nees_outputs() {
+  using namespace plant::hp;
+  static const std::vector<std::size_t> o{kCharge, kValveInletEnthalpy, kZoneAirTemperature,
+                                          kMassTemperature, kInternalGains};
+  return o;
+}
 
 struct FilterRun {
   std::string name;
@@ -96,9 +108,12 @@ struct FilterRun {
   std::vector<Sensor> sensors;    // by kMeasured
   double nis_sum = 0.0, nees_sum = 0.0;
   long nis_count = 0, nees_count = 0, failures = 0;
-  std::vector<double> trace_p, trace_h;
-  std::vector<std::size_t> shared;        // indices of shared_states() in the filter's model
-  std::vector<std::size_t> truth_shared;  // ... and in the truth's
+  std::vector<std::vector<double>>
+      trace;                        // per scored period: estimate, sigma of each checked output
+  std::vector<std::size_t> shared;  // indices of shared_states() in the filter's model
+  std::vector<std::size_t> truth_shared;   // ... and in the truth's
+  std::vector<double> last_y, last_sigma;  // the outputs after the last step, with their sigma
+  std::vector<est::MeasurementReport> last_reports;  // the last update's, when scored
 
   FilterRun(const std::string& filter_name, const plant::ContinuousModel& truth_model,
             std::size_t members, std::size_t threads)
@@ -173,7 +188,10 @@ struct FilterRun {
       step_ms.push_back(tp + tu);
       jac_ms.push_back(model->jacobian_ms - jac0);
     }
-    std::vector<double> y(model->num_outputs()), sigma(model->num_outputs());
+    std::vector<double>& y = last_y;
+    std::vector<double>& sigma = last_sigma;
+    y.assign(model->num_outputs(), 0.0);
+    sigma.assign(model->num_outputs(), 0.0);
     if (filter->output_estimates(u, y, sigma) != plant::kModelOk) ++failures;
     if (!scoring) return;
     const std::vector<double>& yt = truth.y();
@@ -182,8 +200,12 @@ struct FilterRun {
       if (o == plant::hp::kCharge && phases->commissioning(t)) continue;  // held: weighed in
       outputs[k].add(y[o], sigma[o], yt[o]);
     }
-    trace_p.push_back(y[plant::hp::kCondenserOutletPressure]);
-    trace_h.push_back(y[plant::hp::kValveInletEnthalpy]);
+    trace.emplace_back();
+    for (const std::size_t o : checked_outputs()) {
+      trace.back().push_back(y[o]);
+      trace.back().push_back(sigma[o]);
+    }
+    last_reports = reports;
     for (std::size_t i = 0; i < reports.size(); ++i) {
       sensors[i].add(reports[i].available, reports[i].test_ratio, reports[i].rejected);
       if (reports[i].available) {
@@ -191,16 +213,30 @@ struct FilterRun {
         ++nis_count;
       }
     }
-    const auto d = static_cast<Eigen::Index>(shared.size());
+    const auto& outs = nees_outputs();
+    const auto d = static_cast<Eigen::Index>(outs.size());
+    const auto no = static_cast<Eigen::Index>(model->num_outputs());
+    Eigen::MatrixXd H(no, static_cast<Eigen::Index>(n));
+    std::vector<double> yh(model->num_outputs());
+    const std::vector<double> x(filter->state().data(), filter->state().data() + n);
+    if (model->output_jacobian(x, u, yh, {H.data(), static_cast<std::size_t>(H.size())}) !=
+        plant::kModelOk)
+      return;
+    Eigen::MatrixXd Hs(d, static_cast<Eigen::Index>(n));
     Eigen::VectorXd e(d);
-    Eigen::MatrixXd Ps(d, d);
     for (Eigen::Index i = 0; i < d; ++i) {
-      const auto fi = static_cast<Eigen::Index>(shared[static_cast<std::size_t>(i)]);
-      e(i) = filter->state()(fi) - truth.x()[truth_shared[static_cast<std::size_t>(i)]];
-      for (Eigen::Index j = 0; j < d; ++j)
-        Ps(i, j) = filter->covariance()(
-            fi, static_cast<Eigen::Index>(shared[static_cast<std::size_t>(j)]));
+      const std::size_t o = outs[static_cast<std::size_t>(i)];
+      Hs.row(i) = H.row(static_cast<Eigen::Index>(o));
+      e(i) = y[o] - truth.y()[o];
     }
+    Eigen::MatrixXd Ps = Hs * filter->covariance() * Hs.transpose();
+    for (Eigen::Index i = 0; i < d; ++i) {
+      const auto& info = model->layout().outputs[outs[static_cast<std::size_t>(i)]];
+      const double me = std::hypot(
+          info.model_error, info.model_error_rel * std::abs(y[outs[static_cast<std::size_t>(i)]]));
+      Ps(i, i) += me * me;
+    }
+    (void)no;
     const auto ldlt = Ps.ldlt();
     if (ldlt.info() == Eigen::Success) {
       nees_sum += e.dot(ldlt.solve(e));
@@ -208,10 +244,31 @@ struct FilterRun {
     }
   }
 
-  // For BENCH_TRACE: the integrator's work in the last predict (EKF) and the factors.
-  [[nodiscard]] std::string trace_line() const {
+  // For BENCH_TRACE: the integrator's work in the last predict (EKF), the factors, and the
+  // checked outputs as estimate-truth in sigmas.
+  [[nodiscard]] std::string trace_line(const std::vector<double>& y_truth,
+                                       const std::vector<double>& truth_x) const {
     std::string out;
     char buf[160];
+    for (const std::size_t o : checked_outputs())
+      if (o < last_y.size()) {
+        std::snprintf(buf, sizeof buf, "%.6s %+.1f ", model->layout().outputs[o].name.c_str(),
+                      (last_y[o] - y_truth[o]) / std::max(last_sigma[o], 1e-300));
+        out += buf;
+      }
+    for (std::size_t i = 4; i < shared.size(); ++i) {  // T_air, T_mass, Q_int
+      std::snprintf(buf, sizeof buf, "%s %.3f (%.3f) ", shared_states()[i].c_str(),
+                    filter->state()(static_cast<Eigen::Index>(shared[i])),
+                    truth_x[truth_shared[i]]);
+      out += buf;
+    }
+    out += "| innov ";
+    for (const auto& r : last_reports) {
+      std::snprintf(buf, sizeof buf, "%+.1f ",
+                    r.innovation / std::sqrt(std::max(r.innovation_variance, 1e-300)));
+      out += buf;
+    }
+    out += "| ";
     if (const auto* ekf = dynamic_cast<const est::Ekf*>(filter.get())) {
       const plant::IntegrationStats& s = ekf->integrator().last_stats();
       std::snprintf(buf, sizeof buf, "steps %ld rhs %ld jac %ld nlfail %ld etf %ld |", s.steps,
@@ -219,12 +276,17 @@ struct FilterRun {
       out += buf;
     }
     const auto& states = model->layout().states;
+    const Eigen::MatrixXd& P = filter->covariance();
     for (std::size_t i = 0; i < states.size(); ++i)
       if (states[i].augmented && states[i].unit == "1") {
-        std::snprintf(buf, sizeof buf, " %.8s %.3f", states[i].name.c_str(),
-                      filter->state()(static_cast<Eigen::Index>(i)));
+        const auto k = static_cast<Eigen::Index>(i);
+        // The factor, its sigma, and the charge's regression on it (kg per unit factor).
+        std::snprintf(buf, sizeof buf, " %.8s %.3f +-%.3f (dm/df %.3f)", states[i].name.c_str(),
+                      filter->state()(k), std::sqrt(P(k, k)), P(0, k) / P(k, k));
         out += buf;
       }
+    std::snprintf(buf, sizeof buf, " | sigma charge %.4f", std::sqrt(P(0, 0)));
+    out += buf;
     return out;
   }
 

@@ -27,6 +27,7 @@
 #include <memory>
 #include <vector>
 
+#include "daemon/estimation/commissioning.hpp"
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/leak_detector.hpp"
 #include "daemon/runtime/leak_options.hpp"
@@ -156,6 +157,8 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   est::EkfOptions eo;
   eo.constrained = true;
   est::Ekf ekf(*model, q, kMeasured.size(), eo);
+  // The parameters held after the start, as the daemon holds them (estimator.parameter_hold_s).
+  const est::StatePhases phases(layout, {}, config::EstimatorConfig{}.parameter_hold_s, 0.0);
   est::LeakDetector detector(o.detector);
   const plant::ModelLayout& truth_layout = truth.model().layout();
   const std::size_t truth_charge = *truth_layout.state("charge");
@@ -163,7 +166,8 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   const std::size_t truth_m_cond = *truth_layout.state("M_cond");
   const auto i_m_cond = static_cast<Eigen::Index>(*layout.state("M_cond"));
 
-  std::vector<double> y(model->num_outputs()), sigma(model->num_outputs());
+  std::vector<double> y(model->num_outputs()), sigma(model->num_outputs()),
+      own_sigma(model->num_outputs());
   std::vector<est::MeasurementReport> reports(kMeasured.size());
   std::vector<double> step_ms;
   LeakRunResult r;
@@ -180,7 +184,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
                  "t_h,speed_hz,charge_truth_kg,charge_est_kg,charge_sigma_kg,leak_truth_gph,"
                  "leak_est_gph,leak_sigma_gph,cusum,state,hold,qc_truth_W,qc_est_W,qe_truth_W,"
                  "qe_est_W,sc_truth,sc_est,sh_truth,sh_est,fouling,qint_truth,qint_est,mcond_truth,"
-                 "mcond_est\n");
+                 "mcond_est,running,filter_failures\n");
   for (long k = 0; k < steps; ++k) {
     const double t = static_cast<double>(k) * o.period_s;
     std::vector<double>& u = truth.drive(t, o.period_s);
@@ -200,19 +204,23 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
     const auto t0 = Clock::now();
     if (k == 0) {
       start_filter(*model, ekf, u, truth.y_measured());
+      phases.apply(ekf, 0.0);
     } else {
+      phases.apply(ekf, t);
       ok = ekf.predict(u, o.period_s) == est::StepStatus::kOk;
     }
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
-    ok = ekf.output_estimates(u, y, sigma) == plant::kModelOk && ok;
+    ok = ekf.output_estimates(u, y, sigma, own_sigma) == plant::kModelOk && ok;
     step_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (!ok) ++r.filter_failures;
     bool fused = false;
     for (const auto& rep : reports)
       fused = fused || rep.fused;
 
-    const est::LeakReport& rep = detector.step(t_end, y[kLeakRate], sigma[kLeakRate], y[kCharge],
-                                               sigma[kCharge], u[kCompressorSpeed], !ok || !fused);
+    // The filter's own sigmas, as the daemon passes them (unit_pipeline_leak.cpp).
+    const est::LeakReport& rep =
+        detector.step(t_end, y[kLeakRate], own_sigma[kLeakRate], y[kCharge], own_sigma[kCharge],
+                      u[kCompressorSpeed], !ok || !fused);
     r.held_s[static_cast<std::size_t>(rep.hold)] += o.period_s;
     if (rep.decisions > r.decisions) {
       r.decisions = rep.decisions;
@@ -277,10 +285,11 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
                    truth.x()[truth_leak], y[kLeakRate], sigma[kLeakRate], rep.cusum,
                    static_cast<int>(rep.state), static_cast<int>(rep.hold), yt[kCondenserHeatFlow],
                    y[kCondenserHeatFlow], yt[kEvaporatorHeatFlow], y[kEvaporatorHeatFlow]);
-      std::fprintf(o.trace, ",%.2f,%.2f,%.2f,%.2f,%.4f,%.0f,%.0f,%.5f,%.5f\n", yt[kSubcooling],
-                   y[kSubcooling], yt[kSuperheat], y[kSuperheat], y[kOutdoorCoilFouling],
-                   yt[kInternalGains], y[kInternalGains], truth.x()[truth_m_cond],
-                   ekf.state()(i_m_cond));
+      std::fprintf(o.trace, ",%.2f,%.2f,%.2f,%.2f,%.4f,%.0f,%.0f,%.5f,%.5f,%d,%ld\n",
+                   yt[kSubcooling], y[kSubcooling], yt[kSuperheat], y[kSuperheat],
+                   y[kOutdoorCoilFouling], yt[kInternalGains], y[kInternalGains],
+                   truth.x()[truth_m_cond], ekf.state()(i_m_cond), running ? 1 : 0,
+                   r.filter_failures);
       std::fflush(o.trace);
     }
     r.simulated_s = t_end;

@@ -32,14 +32,8 @@ StackOptions heat_pump_options(int domain) {
   o.sim_step_s = 1.0;
   o.base_config = "config/demo-heat-pump.json";
   o.customize = [](nlohmann::json& c) {
-    // The topics and the daemon's life are under test here, not the model's accuracy: the
-    // cheapest closure (alpha constant per coil, 4 cells) keeps a cycle inside the 0.45 s
-    // deadline under the sanitizers too. There, with the default closure at 12 cells and at 6,
-    // and with the constant one at 10, cycles took 0.5-1.5 s: a late joiner waited in vain and
-    // the leak detector made too few decisions.
-    auto& p = c["units"][0]["model"]["parameters"];
-    p["cells"] = 4;
-    p["two_phase_htc"] = 0;
+    // The topics and the daemon's life are under test here, not the model's accuracy.
+    cheapest_heat_pump(c);
     c["units"][0]["estimator"]["settle_s"] = 300.0;  // a shorter start than the demo's
   };
   return o;
