@@ -2,7 +2,7 @@
 // filter runs, printed as one table. The scenarios, the truth and the filter are
 // tests/bench/leak_scenario.hpp; leak_acceptance_test asserts the same properties in short form.
 //
-//   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR]
+//   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--days-a D]
 //
 // Long form (the acceptance figures):
 //   (a) seven days of normal operation: daily outdoor cycle, day/night setpoints, internal
@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   bool quick = false;
   std::string only = "abc", trace_dir;
   double period = 5.0;
+  double days_a = 7.0;  // --days-a: the length of scenario (a) in the long form
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -64,9 +65,12 @@ int main(int argc, char** argv) {
       period = std::atof(next().c_str());
     else if (a == "--trace-dir")
       trace_dir = next();
+    else if (a == "--days-a")
+      days_a = std::atof(next().c_str());
     else {
       std::fprintf(stderr,
-                   "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR]\n");
+                   "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
+                   "[--days-a D]\n");
       return 2;
     }
   }
@@ -92,7 +96,8 @@ int main(int argc, char** argv) {
     add('b', "(b) 10 %/2 h leak", 4.0, 12.0 * fast);
     add('c', "(c) 2 %/h leak", 5.0, 24.0 * slow);
   } else {
-    add('a', "(a) normal, 7 days", 168.0, 0.0);
+    const std::string a_name = "(a) normal, " + std::to_string(static_cast<int>(days_a)) + " days";
+    add('a', a_name.c_str(), 24.0 * days_a, 0.0);
     add('b', "(b) 10 %/24 h leak", 72.0, fast);
     add('c', "(c) 2 %/day leak", 168.0, slow);
   }
@@ -100,7 +105,7 @@ int main(int argc, char** argv) {
   const est::LeakDetector probe(base.detector);
   std::printf(
       "leak_bench (%s): truth heat_pump_r32 at 20 cells with perturbed parameters; filter: the "
-      "constrained EKF on the 10-cell model, period %.0f s\n"
+      "constrained EKF on the daemon's model (12 cells, heat_pump_scenario.hpp), period %.0f s\n"
       "detector: CUSUMs on the leak-rate estimate (sigma floor %.2f g/h) and on the charge "
       "deficit (allowance %.1f g, reference over %.1f h judged; 0: off), a decision per %.0f "
       "min of judgeable operation, design shift %.1f sigma, one false alarm per %.0f days "
