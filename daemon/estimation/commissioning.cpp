@@ -13,8 +13,12 @@ StatePhases::StatePhases(const plant::ModelLayout& layout, std::vector<KnownStat
   augmented_.assign(n, 0);
   calibrate_.assign(n, 0);
   is_known_.assign(n, 0);
+  excited_by_.assign(n, -1);
+  excitation_min_.assign(n, 0.0);
   for (std::size_t i = 0; i < n; ++i) {
     const plant::StateInfo& s = layout.states[i];
+    excited_by_[i] = s.excited_by;
+    excitation_min_[i] = s.excitation_min;
     base_[i] = s.consider || s.calibrate ? 1 : 0;
     augmented_[i] = s.augmented ? 1 : 0;
     calibrate_[i] = s.calibrate ? 1 : 0;
@@ -59,13 +63,16 @@ std::string StatePhases::begin(Estimator& filter, double t) {
   return {};
 }
 
-void StatePhases::apply(Estimator& filter, double t) const {
+void StatePhases::apply(Estimator& filter, double t, std::span<const double> u) const {
   const bool settle = settling(t), commission = commissioning(t);
   for (std::size_t i = 0; i < base_.size(); ++i) {
     bool consider = base_[i] != 0;
     if (commission && calibrate_[i] != 0) consider = false;
     if (commission && is_known_[i] != 0) consider = true;
     if (settle && augmented_[i] != 0) consider = true;
+    const auto input = static_cast<std::size_t>(excited_by_[i]);
+    if (excited_by_[i] >= 0 && input < u.size() && !(u[input] >= excitation_min_[i]))
+      consider = true;
     filter.set_consider(i, consider);
   }
 }

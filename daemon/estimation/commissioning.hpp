@@ -11,6 +11,8 @@
 //    charge, weighed in). They are set to their known values with the given sigma and held; the
 //    closures no sensor can separate from them (StateInfo::calibrate: the heat pump's two-phase
 //    void fraction, which sets how much refrigerant a given subcooling means) are estimated.
+//  - excitation (every phase): a parameter the model marks as revealed only by a running
+//    process (StateInfo::excited_by) is held while its input says the process stands still.
 //  - operation: the known states are estimated again (a change of the charge must show as a
 //    charge change); the calibrated closures are frozen at their estimates, their posterior sigma
 //    carried as consider states. Without commissioning they stay considered at their prior: their
@@ -20,6 +22,7 @@
 // (start-up only); apply() does not. No exceptions.
 #pragma once
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -49,8 +52,9 @@ class StatePhases {
   // filter is unchanged.
   std::string begin(Estimator& filter, double t);
 
-  // The flags for time t since the start. No allocation.
-  void apply(Estimator& filter, double t) const;
+  // The flags for time t since the start, with the inputs over the coming period (empty: no
+  // excitation holds). No allocation.
+  void apply(Estimator& filter, double t, std::span<const double> u = {}) const;
 
   [[nodiscard]] bool settling(double t) const { return t < settle_s_; }
   [[nodiscard]] bool commissioning(double t) const {
@@ -61,6 +65,8 @@ class StatePhases {
   std::vector<KnownState> known_;
   std::vector<std::size_t> known_index_;
   std::vector<char> base_, augmented_, calibrate_, is_known_;
+  std::vector<int> excited_by_;
+  std::vector<double> excitation_min_;
   double settle_s_, commissioning_s_;
 };
 

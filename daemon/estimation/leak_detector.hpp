@@ -6,6 +6,9 @@
 //
 // Leak rate (always): z = leak / max(sigma, sigma_floor) averaged over the interval,
 //     S_rate = max(0, S_rate + z - k).
+// The sigma is the caller's: the daemon passes the published one, which carries the model's
+// structural wander of the rate (plant_models: SignalInfo::model_error), so that an offset that
+// drifts with the operating point does not read as a leak.
 // The floor matters for a constrained filter: while its leak-rate estimate rests on a lower
 // bound the PDF truncation collapses the sigma it reports (measured on the heat pump: 0.02 g/h
 // on the bound against 0.19 g/h off it), and a small excursion would read as many sigma.

@@ -243,9 +243,10 @@ void UnitPipeline::initialize() {
     log_->info("unit {}: estimator started{}", unit_.id,
                guessed_ ? " from the model's guess at the measured conditions" : "");
   } else {
-    phases_.reset();  // a resumed filter has its parameters: nothing to hold
-    for (std::size_t i = 0; i < filter_->num_states(); ++i)
-      filter_->set_consider(i, model_->layout().states[i].consider);
+    // A resumed filter has its parameters: no settling hold, only the excitation holds.
+    phases_ = std::make_unique<est::StatePhases>(model_->layout(), std::vector<est::KnownState>{},
+                                                 0.0, 0.0);
+    phases_->apply(*filter_, 0.0);
   }
 }
 
@@ -302,7 +303,8 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     if (have_prev_) {
       // dt from the tick stamps: skipped ticks advance the model by more than one period.
       const double dt = period_s_ * static_cast<double>(tick.ticks_since_last);
-      if (phases_) phases_->apply(*filter_, model_time_s_ - phases_from_s_);
+      // With the inputs of the period ahead: parameters its process does not excite are held.
+      phases_->apply(*filter_, model_time_s_ - phases_from_s_, u_prev_);
       const est::StepStatus st = filter_->predict(u_prev_, dt);
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
       if (st == est::StepStatus::kModelError) flags |= dds::kFlagPredictOnly;

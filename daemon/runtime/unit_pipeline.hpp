@@ -162,7 +162,8 @@ class UnitPipeline {
   double nameplate_charge_ = 0.0;  // [kg], the charge state's initial value
   double false_alarm_days_ = 0.0;  // designed, published with every diagnostic
   double model_time_s_ = 0.0;      // model time since the filter started [s]
-  // Augmented states held (considered) after a start until this model time [s] (est::StatePhases).
+  // Augmented states held (considered) after a cold start, and parameters while their process
+  // stands still (est::StatePhases).
   std::unique_ptr<est::StatePhases> phases_;
   double phases_from_s_ = 0.0;  // the model time the phases count from [s]
   int failed_predictions_ = 0;  // in a row

@@ -54,6 +54,12 @@ struct StateInfo {
   // A slow state an initial guess takes from the measured conditions (a zone's temperatures):
   // held there while the model settles (plant_models/core/settling.hpp).
   bool held_while_settling = false;
+  // A parameter only a running process reveals (a compressor's efficiency, a coil's boiling
+  // coefficient): held (considered) while input `excited_by` is below `excitation_min` (the
+  // compressor off), when no measurement carries information on it and the update would move it
+  // on the innovations of whatever else the model gets wrong. -1: always estimable.
+  int excited_by = -1;
+  double excitation_min = 0.0;
 };
 
 struct SignalInfo {

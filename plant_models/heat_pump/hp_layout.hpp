@@ -66,13 +66,12 @@ struct Layout {
   Slice h_cond, tw_cond, h_evap, tw_evap;
   std::size_t h_dl = 0, h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
   std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the pressure solve
-  std::size_t q_int = kNone, leak = kNone;  // kNone: not augmented
+  std::size_t q_int = kNone, leak = kNone;        // kNone: not augmented
   std::array<std::size_t, kNumFactors> factor{};  // kNone: not augmented
   std::size_t fouling = kNone;                    // factor[kCondUa], by its historical name
   std::size_t size = 0;
 
-  Layout(std::size_t n, bool gains, bool leak_rate,
-         const std::array<bool, kNumFactors>& augmented)
+  Layout(std::size_t n, bool gains, bool leak_rate, const std::array<bool, kNumFactors>& augmented)
       : cells(n) {
     factor.fill(kNone);
     std::size_t at = 2;
@@ -113,6 +112,8 @@ enum Input : std::size_t {
   kOutdoorTemperature,  // degC
   kNumInputs
 };
+// Below this compressor speed the unit stands still [Hz] (as the leak detector's default).
+inline constexpr double kStoppedBelowHz = 5.0;
 
 // Outputs: measurable points first, then virtual sensors.
 enum Output : std::size_t {

@@ -170,7 +170,7 @@ struct FilterRun {
       filter->update(z, u, reports);
       started = true;
     } else {
-      phases->apply(*filter, t);
+      phases->apply(*filter, t, u);
       std::vector<double> xs(filter->state().data(), filter->state().data() + n);
       plant::Integrator sim(*model, plant::IntegratorOptions{});
       const auto ts = Clock::now();

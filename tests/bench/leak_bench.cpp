@@ -3,6 +3,7 @@
 // tests/bench/leak_scenario.hpp; leak_acceptance_test asserts the same properties in short form.
 //
 //   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--days-a D]
+//              [--off-from H] [--no-augment NAME]...
 //
 // Long form (the acceptance figures):
 //   (a) seven days of normal operation: daily outdoor cycle, day/night setpoints, internal
@@ -53,7 +54,8 @@ int main(int argc, char** argv) {
   bool quick = false;
   std::string only = "abc", trace_dir;
   double period = 5.0;
-  double days_a = 7.0;  // --days-a: the length of scenario (a) in the long form
+  double days_a = 7.0;     // --days-a: the length of scenario (a) in the long form
+  double off_from = -1.0;  // --off-from: the night set-back's clock hour (4 h long); -1: 01:00
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -67,10 +69,14 @@ int main(int argc, char** argv) {
       trace_dir = next();
     else if (a == "--days-a")
       days_a = std::atof(next().c_str());
+    else if (a == "--off-from")
+      off_from = std::atof(next().c_str());
+    else if (a == "--no-augment")  // the filter considers this parameter instead
+      bench::filter_parameters()["augment_" + next()] = 0;
     else {
       std::fprintf(stderr,
                    "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
-                   "[--days-a D]\n");
+                   "[--days-a D] [--off-from H] [--no-augment NAME]...\n");
       return 2;
     }
   }
@@ -80,6 +86,10 @@ int main(int argc, char** argv) {
   const double nameplate_g = 1e3 * bench::kNameplateChargeKg;
   const double fast = nameplate_g * 0.10 / 24.0, slow = nameplate_g * 0.02 / 24.0;  // g/h
   if (quick) base = bench::short_form(base);
+  if (off_from >= 0.0) {
+    base.operation.off_from_h = off_from;
+    base.operation.off_to_h = off_from + 4.0;
+  }
   std::vector<Row> rows;
   const auto add = [&](char id, const char* name, double hours, double leak) {
     if (only.find(id) == std::string::npos) return;

@@ -184,7 +184,16 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
                  "t_h,speed_hz,charge_truth_kg,charge_est_kg,charge_sigma_kg,leak_truth_gph,"
                  "leak_est_gph,leak_sigma_gph,cusum,state,hold,qc_truth_W,qc_est_W,qe_truth_W,"
                  "qe_est_W,sc_truth,sc_est,sh_truth,sh_est,fouling,qint_truth,qint_est,mcond_truth,"
-                 "mcond_est,running,filter_failures\n");
+                 "mcond_est,running,filter_failures");
+  // Every augmented state the filter estimates (the parameters and the leak rate), by name.
+  std::vector<Eigen::Index> augmented;
+  for (std::size_t i = 0; i < layout.states.size(); ++i)
+    if (layout.states[i].augmented) augmented.push_back(static_cast<Eigen::Index>(i));
+  if (o.trace != nullptr) {
+    for (const Eigen::Index i : augmented)
+      std::fprintf(o.trace, ",%s", layout.states[static_cast<std::size_t>(i)].name.c_str());
+    std::fprintf(o.trace, "\n");
+  }
   for (long k = 0; k < steps; ++k) {
     const double t = static_cast<double>(k) * o.period_s;
     std::vector<double>& u = truth.drive(t, o.period_s);
@@ -206,7 +215,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
       start_filter(*model, ekf, u, truth.y_measured());
       phases.apply(ekf, 0.0);
     } else {
-      phases.apply(ekf, t);
+      phases.apply(ekf, t, u);
       ok = ekf.predict(u, o.period_s) == est::StepStatus::kOk;
     }
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
@@ -217,9 +226,10 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
     for (const auto& rep : reports)
       fused = fused || rep.fused;
 
-    // The filter's own sigmas, as the daemon passes them (unit_pipeline_leak.cpp).
+    // The sigmas as the daemon passes them (unit_pipeline_leak.cpp): the leak rate's published,
+    // the charge's the filter's own.
     const est::LeakReport& rep =
-        detector.step(t_end, y[kLeakRate], own_sigma[kLeakRate], y[kCharge], own_sigma[kCharge],
+        detector.step(t_end, y[kLeakRate], sigma[kLeakRate], y[kCharge], own_sigma[kCharge],
                       u[kCompressorSpeed], !ok || !fused);
     r.held_s[static_cast<std::size_t>(rep.hold)] += o.period_s;
     if (rep.decisions > r.decisions) {
@@ -285,11 +295,13 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
                    truth.x()[truth_leak], y[kLeakRate], sigma[kLeakRate], rep.cusum,
                    static_cast<int>(rep.state), static_cast<int>(rep.hold), yt[kCondenserHeatFlow],
                    y[kCondenserHeatFlow], yt[kEvaporatorHeatFlow], y[kEvaporatorHeatFlow]);
-      std::fprintf(o.trace, ",%.2f,%.2f,%.2f,%.2f,%.4f,%.0f,%.0f,%.5f,%.5f,%d,%ld\n",
-                   yt[kSubcooling], y[kSubcooling], yt[kSuperheat], y[kSuperheat],
-                   y[kOutdoorCoilFouling], yt[kInternalGains], y[kInternalGains],
-                   truth.x()[truth_m_cond], ekf.state()(i_m_cond), running ? 1 : 0,
-                   r.filter_failures);
+      std::fprintf(o.trace, ",%.2f,%.2f,%.2f,%.2f,%.4f,%.0f,%.0f,%.5f,%.5f,%d,%ld", yt[kSubcooling],
+                   y[kSubcooling], yt[kSuperheat], y[kSuperheat], y[kOutdoorCoilFouling],
+                   yt[kInternalGains], y[kInternalGains], truth.x()[truth_m_cond],
+                   ekf.state()(i_m_cond), running ? 1 : 0, r.filter_failures);
+      for (const Eigen::Index i : augmented)
+        std::fprintf(o.trace, ",%.5g", ekf.state()(i));
+      std::fprintf(o.trace, "\n");
       std::fflush(o.trace);
     }
     r.simulated_s = t_end;

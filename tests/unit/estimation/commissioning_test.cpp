@@ -19,12 +19,18 @@ struct Phased {
   plant::ModelLayout layout() const {
     plant::ModelLayout l;
     l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
-    l.states.push_back(
-        plant::StateInfo{.name = "a", .unit = "1", .abs_tol = 1e-10, .augmented = true});
+    // a: revealed only while input "speed" is at least 5 (the compressor running).
+    l.states.push_back(plant::StateInfo{.name = "a",
+                                        .unit = "1",
+                                        .abs_tol = 1e-10,
+                                        .augmented = true,
+                                        .excited_by = 0,
+                                        .excitation_min = 5.0});
     l.states.push_back(plant::StateInfo{
         .name = "v", .unit = "1", .abs_tol = 1e-10, .augmented = true, .calibrate = true});
     l.states.push_back(
         plant::StateInfo{.name = "m", .unit = "kg", .abs_tol = 1e-10, .augmented = true});
+    l.inputs.push_back(plant::SignalInfo{.name = "speed", .unit = "Hz", .default_value = 0.0});
     l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
     return l;
   }
@@ -103,4 +109,31 @@ TEST_CASE("state phases: a restart after commissioning keeps the estimate, and b
   est::StatePhases no_sigma(model.layout(), {{"m", 0.5, 0.0}}, 600.0, 3600.0);
   CHECK(no_sigma.begin(ekf, 0.0).find("sigma > 0") != std::string::npos);
   CHECK(ekf.state()(3) == 0.45);  // unchanged by the refused begin()s
+}
+
+TEST_CASE("state phases: a parameter only a running process reveals is held while it stands",
+          "[commissioning][ekf]") {
+  const plant::AdModel<Phased> model(Phased{});
+  est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
+  ekf.reset(std::vector<double>{1.0, 0.0, 0.0, 0.45}, std::vector<double>{0.1, 0.2, 0.3, 0.05});
+  const est::StatePhases phases(model.layout(), {}, 600.0, 0.0);
+  const std::vector<double> stopped{0.0}, running{20.0}, unknown{std::nan("")};
+  phases.apply(ekf, 700.0, running);
+  CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
+  phases.apply(ekf, 700.0, stopped);  // below excitation_min: held, the rest as before
+  CHECK(flags(ekf) == std::vector<bool>{false, true, true, false});
+  phases.apply(ekf, 700.0, unknown);  // an input not known is no excitation
+  CHECK(flags(ekf) == std::vector<bool>{false, true, true, false});
+  phases.apply(ekf, 700.0, running);  // released when the process runs again
+  CHECK(flags(ekf) == std::vector<bool>{false, false, true, false});
+
+  // Held, the update leaves it where it was while the others move.
+  phases.apply(ekf, 700.0, stopped);
+  std::vector<est::MeasurementReport> reports(1);
+  const std::vector<est::Measurement> z{
+      {.output = 0, .value = 2.0, .variance = 0.01, .available = true}};
+  const double a0 = ekf.state()(1);
+  REQUIRE(ekf.update(z, stopped, reports) == est::StepStatus::kOk);
+  CHECK(ekf.state()(1) == a0);
+  CHECK(ekf.state()(0) != 1.0);
 }

@@ -128,6 +128,16 @@ TEST_CASE("with every uncertain parameter a state, the Jacobians are exact too",
   INFO("largest relative error, f: " << e.f << ", h: " << e.h);
   CHECK(e.f < 1e-6);
   CHECK(e.h < 1e-6);
+
+  // Each describes the running cycle: held while the compressor stands (est::StatePhases).
+  const auto& layout = rig.model->layout();
+  for (const auto& f : factor_info()) {
+    const auto& s = layout.states[*layout.state(f.name)];
+    INFO(f.name);
+    CHECK(s.excited_by == static_cast<int>(kCompressorSpeed));
+    CHECK(s.excitation_min == kStoppedBelowHz);
+  }
+  CHECK(layout.states[*layout.state("charge")].excited_by == -1);
 }
 
 TEST_CASE("the cell jets a Jacobian keeps change neither f nor the next Jacobian", "[heat_pump]") {
