@@ -21,4 +21,10 @@ inline constexpr double kMaxHangTimeoutS = 86400.0;  // runtime.hang_timeout_s
 inline constexpr int kMaxConsecutiveRejections = 1000000;
 inline constexpr long kMaxConsistencyWindowCycles = 100000;  // consistency_window_s / period_s
 
+// Upper bounds of initial_std (the state's range) and process_noise (the range over
+// sqrt(kProcessNoiseSpanS): a random walk spanning it in an hour); kMaxUnboundedStd for both
+// when the state has no finite range.
+inline constexpr double kProcessNoiseSpanS = 3600.0;
+inline constexpr double kMaxUnboundedStd = 1e6;
+
 }  // namespace hvac_twin::config::detail

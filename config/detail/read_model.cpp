@@ -63,6 +63,20 @@ bool read_parameter(const plant::ParameterInfo& info, const Ref& value, Errors& 
   return false;
 }
 
+// Upper bounds of a state's uncertainty: its square enters the covariance, and 1e308 squared
+// was an infinite covariance (a numerical reset every cycle). A standard deviation wider than
+// the state's range says nothing the bounds do not; a random walk that spans the range in an hour
+// is as fast as any state drifts. A state without a finite range is capped at kMaxUnboundedStd.
+double max_initial_std(const plant::StateInfo& s) {
+  const double width = s.max - s.min;
+  return std::isfinite(width) && width > 0.0 ? width : kMaxUnboundedStd;
+}
+double max_process_noise(const plant::StateInfo& s) {
+  const double width = s.max - s.min;
+  return std::isfinite(width) && width > 0.0 ? width / std::sqrt(kProcessNoiseSpanS)
+                                             : kMaxUnboundedStd;
+}
+
 }  // namespace
 
 ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& models) {
@@ -191,13 +205,14 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
     });
   };
   read_state_map(
-      "process_noise", e.process_noise, [](const plant::StateInfo&) { return at_least(0.0); },
-      "/sqrt(s)");
+      "process_noise", e.process_noise,
+      [](const plant::StateInfo& s) { return closed(0.0, max_process_noise(s)); }, "/sqrt(s)");
   read_state_map(
       "initial_state", e.initial_state,
       [](const plant::StateInfo& s) { return closed(s.min, s.max); }, "");
   read_state_map(
-      "initial_std", e.initial_std, [](const plant::StateInfo&) { return positive(); }, "");
+      "initial_std", e.initial_std,
+      [](const plant::StateInfo& s) { return positive(max_initial_std(s)); }, "");
 
   const Ref noise = r.require("measurement_noise");
   const auto outputs = layout ? names_of(layout->outputs) : std::vector<std::string>{};

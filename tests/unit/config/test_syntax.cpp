@@ -139,7 +139,7 @@ TEST_CASE("NaN and Infinity are rejected however they are written", "[config]") 
   // As strings.
   require_single_error(load(demo_with("\"Q_int\": 1.0", "\"Q_int\": \"NaN\"")),
                        "/units/0/estimator/process_noise/Q_int",
-                       {"expected a number >= 0", "got \"NaN\"", "no NaN or Infinity"});
+                       {"expected a number in [0, ", "got \"NaN\"", "no NaN or Infinity"});
   require_single_error(load(demo_with("\"deadline_s\": 0.5", "\"deadline_s\": \"inf\"")),
                        "/units/0/estimator/deadline_s", {"got \"inf\"", "no NaN or Infinity"});
   // As null, which is how nlohmann-json writes a NaN.
