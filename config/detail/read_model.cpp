@@ -169,7 +169,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   ObjectReader r(ref, errors);
   const bool period_ok = r.number("period_s", e.period_s, positive(kMaxPeriodS), false, "s");
   const bool deadline_ok =
-      r.number("deadline_s", e.deadline_s, positive(kMaxDeadlineS), false, "s");
+      r.number("deadline_s", e.deadline_s, closed(kMinTickS, kMaxDeadlineS), false, "s");
   r.number("nis_gate", e.nis_gate, positive());
   r.integer("max_consecutive_rejections", e.max_consecutive_rejections, 1,
             kMaxConsecutiveRejections);
@@ -251,9 +251,19 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.finish();
 
   if (!r.ok()) return e;  // cross-checks below report at the estimator object
-  if (period_ok && deadline_ok && context.time_scale) {
+  if (period_ok && context.time_scale) {
     const double wall_period = e.period_s / *context.time_scale;
-    if (e.deadline_s > wall_period) {
+    const bool wall_ok = closed(kMinTickS, kMaxWallPeriodS).contains(wall_period);
+    if (!wall_ok) {
+      const Ref at = r.get("period_s").present() ? r.get("period_s") : r.ref();
+      errors.add(*at.node, at.pointer,
+                 "the wall-clock period period_s / runtime.time_scale = " +
+                     format_number(e.period_s) + " / " + format_number(*context.time_scale) +
+                     " = " + format_number(wall_period) + " s; expected a number in [" +
+                     format_number(kMinTickS) + ", " + format_number(kMaxWallPeriodS) +
+                     "] s (the runtime counts it in whole nanoseconds, DDS takes at most 24 h)");
+    }
+    if (wall_ok && deadline_ok && e.deadline_s > wall_period) {
       const Ref at = r.get("deadline_s").present() ? r.get("deadline_s") : r.ref();
       errors.add(*at.node, at.pointer,
                  "deadline_s (" + format_number(e.deadline_s) +

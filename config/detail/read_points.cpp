@@ -16,6 +16,7 @@ struct PointResult {
   bool type_ok = false;
   bool kind_ok = false;
   bool name_ok = false;
+  bool role_ok = false;
   bool feeds_ok = false;  // role and signal valid (and the signal exists when it can be checked)
   Ref name;
   Ref address;
@@ -134,7 +135,7 @@ PointResult read_point(const Ref& ref, Errors& errors, const PointContext& conte
   read_range(r, p);
   const bool stale_ok =
       r.number("stale_after_s", p.stale_after_s, positive(kMaxStaleAfterS), false, "s");
-  const bool role_ok = r.choice<PointRole>("role", p.role, kPointRoleNames, kPointRoles);
+  out.role_ok = r.choice<PointRole>("role", p.role, kPointRoleNames, kPointRoles);
   out.signal = r.require("signal");
   bool signal_ok = false;
   if (out.signal.present()) {
@@ -171,7 +172,7 @@ PointResult read_point(const Ref& ref, Errors& errors, const PointContext& conte
                    format_number(*context.poll_period_s) +
                    " s), or the point turns STALE between polls");
   }
-  out.feeds_ok = role_ok && signal_ok;
+  out.feeds_ok = out.role_ok && signal_ok;
   if (out.feeds_ok && context.layout != nullptr) {
     const plant::SignalInfo* signal = resolve_signal(out, errors, context);
     out.feeds_ok = signal != nullptr;
@@ -205,6 +206,7 @@ PointsSection read_points(const Ref& ref, Errors& errors, const PointContext& co
     results.push_back(read_point(ref.at(i), errors, context));
 
   std::map<std::string, std::string> fed_by;  // model input -> point name
+  std::size_t measured = 0;
   for (std::size_t i = 0; i < results.size(); ++i) {
     const PointResult& p = results[i];
     const PointConfig& c = p.config;
@@ -231,6 +233,7 @@ PointsSection read_points(const Ref& ref, Errors& errors, const PointContext& co
         }
       }
     }
+    if (p.role_ok && c.role == PointRole::kMeasured) ++measured;
     if (!p.feeds_ok) {
       out.complete = false;
     } else if (c.role == PointRole::kMeasured) {
@@ -247,6 +250,11 @@ PointsSection read_points(const Ref& ref, Errors& errors, const PointContext& co
   for (auto& p : results)
     out.points.push_back(std::move(p.config));
 
+  if (measured > kMaxMeasuredPoints)
+    errors.add(*ref.node, ref.pointer,
+               std::to_string(measured) + " points have role \"measured\"; a unit takes at most " +
+                   std::to_string(kMaxMeasuredPoints) +
+                   " (the points fused in a cycle are published as a 64-bit mask)");
   if (context.layout == nullptr || !out.complete) return out;
   for (const auto& input : context.layout->inputs) {
     if (!std::isnan(input.default_value) || fed_by.contains(input.name)) continue;

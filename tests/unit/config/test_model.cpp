@@ -194,7 +194,7 @@ TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
   j = demo_json();
   estimator(j)["deadline_s"] = 0;
   require_single_error(load_json(j), "/units/0/estimator/deadline_s",
-                       {"expected a number in (0, 3600] [s]; got 0"});
+                       {"expected a number in [1e-9, 3600] [s]; got 0"});
   j = demo_json();
   estimator(j)["period_s"] = -60;
   require_single_error(load_json(j), "/units/0/estimator/period_s", {"(0, 86400]", "got -60"});
@@ -211,6 +211,36 @@ TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
   estimator(j).erase("deadline_s");
   j["runtime"]["time_scale"] = 120;
   require_single_error(load_json(j), "/units/0/estimator", {"deadline_s (1 s) must not exceed"});
+}
+
+// The runtime counts the wall-clock period and the deadline in whole nanoseconds, and DDS takes
+// a period of at most 24 h: start-up refused (exit 1) what --check-config had passed.
+TEST_CASE("the wall-clock period is 1 ns to 24 h, the deadline at least 1 ns", "[config]") {
+  auto j = demo_json();
+  estimator(j)["period_s"] = 1e-12;              // 1.7e-14 s of wall time at time_scale 60
+  estimator(j)["deadline_s"] = 1e-15;            // within that period
+  estimator(j)["consistency_window_s"] = 1e-10;  // 100 cycles
+  const LoadResult r = load_json(j);
+  INFO(test::describe(r));
+  CHECK_FALSE(r.config.has_value());
+  CHECK(r.errors.size() == 2);
+  CHECK(test::has_error(r, "/units/0/estimator/period_s",
+                        {"period_s / runtime.time_scale = 1e-12 / 60 = ", "[1e-9, 86400]"}));
+  CHECK(test::has_error(r, "/units/0/estimator/deadline_s",
+                        {"expected a number in [1e-9, 3600] [s]; got 1e-15"}));
+  // Nanoseconds are enough.
+  estimator(j)["period_s"] = 120e-9;  // 2 ns of wall time
+  estimator(j)["deadline_s"] = 1e-9;
+  estimator(j)["consistency_window_s"] = 120e-9 * 30;
+  test::require_ok(load_json(j));
+
+  j = demo_json();
+  estimator(j)["period_s"] = 86400;
+  j["runtime"]["time_scale"] = 0.5;
+  require_single_error(load_json(j), "/units/0/estimator/period_s",
+                       {"= 86400 / 0.5 = 172800 s", "[1e-9, 86400]"});
+  j["runtime"]["time_scale"] = 1;
+  test::require_ok(load_json(j));
 }
 
 TEST_CASE("every error of a document is reported, not just the first", "[config]") {

@@ -186,6 +186,31 @@ TEST_CASE("several measured points may share an output", "[config]") {
   test::require_ok(load_json(j));
 }
 
+// The daemon publishes the points fused in a cycle as a 64-bit mask, and refused more at
+// start-up (exit 1) after --check-config had passed them.
+TEST_CASE("a unit takes at most 64 measured points", "[config]") {
+  auto j = demo_json();
+  const json measured = point(j, 0);
+  for (int k = 1; k < 64; ++k) {
+    json extra = measured;
+    extra["name"] = "zone_temp_" + std::to_string(k);
+    extra["address"] = 100 + k;
+    j["units"][0]["points"].push_back(extra);
+  }
+  test::require_ok(load_json(j));  // 64 measured points
+  json extra = measured;
+  extra["name"] = "zone_temp_64";
+  extra["address"] = 164;
+  j["units"][0]["points"].push_back(extra);
+  require_single_error(load_json(j), "/units/0/points",
+                       {"65 points have role \"measured\"", "at most 64"});
+  // Points with other roles do not count.
+  j["units"][0]["points"].back()["role"] = "disturbance";
+  j["units"][0]["points"].back()["signal"] = "outdoor_temperature";
+  j["units"][0]["points"].erase(1);  // the other outdoor_temperature point
+  test::require_ok(load_json(j));
+}
+
 TEST_CASE("a unit needs points, and at least one measured point", "[config]") {
   auto j = demo_json();
   j["units"][0]["points"] = json::array();
