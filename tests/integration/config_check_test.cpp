@@ -239,6 +239,42 @@ TEST_CASE("check-config: one line per error, at its JSON pointer, and exit 78",
   std::filesystem::remove_all(dir);
 }
 
+// A hostile file: a million unknown keys printed a million lines. The first 100 errors are
+// printed and one line says how many more there were, by --check-config and at start-up.
+TEST_CASE("check-config and start-up print at most 100 errors and count the rest",
+          "[integration][cli][config]") {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("hvac-twin-cap-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::string keys;
+  for (int k = 0; k < 1000; ++k)
+    keys += "\"unknown_" + std::to_string(k) + "\": 0, ";
+  const std::string file = (dir / "unknown-keys.json").string();
+  std::ofstream(file, std::ios::binary) << edited({{"{", "{" + keys}});
+
+  Process check(HVAC_TWIND_EXE, {"--check-config", file}, file + ".out", file + ".err");
+  REQUIRE(check.wait(20s) == 78);
+  const auto err = lines(check.err());
+  INFO("stderr:\n" << check.err());
+  REQUIRE(err.size() <= 101);
+  REQUIRE(err.size() == 101);
+  for (int k = 0; k < 100; ++k)  // the first 100, in document order
+    CHECK(err[static_cast<std::size_t>(k)].rfind(
+              file + ": /unknown_" + std::to_string(k) + ": unknown key", 0) == 0);
+  CHECK(err.back() == file + ": 1000 error(s), 900 more not shown");
+
+  Process daemon(HVAC_TWIND_EXE, {"--config", file}, file + ".d.out", file + ".d.err");
+  REQUIRE(daemon.wait(20s) == 78);
+  const auto daemon_err = lines(daemon.err());
+  INFO("daemon stderr:\n" << daemon.err());
+  REQUIRE(daemon_err.size() <= 101);
+  CHECK(daemon_err.size() == 101);
+  CHECK_THAT(daemon_err.back(),
+             Catch::Contains("900 more error(s) not shown") && Catch::Contains("not starting"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("check-config accepts every configuration the repository ships",
           "[integration][cli][config]") {
   // Every *.json directly in config/ (config/examples/ holds the broken ones on purpose).
