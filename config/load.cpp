@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <span>
 #include <sstream>
 
 #include "config/detail/json_tree.hpp"
@@ -110,6 +111,7 @@ LoadResult load_config_text(std::string_view json_text, const ModelCatalog& mode
     r.finish();
   }
   if (errors.empty()) result.config = std::move(c);
+  result.more_errors = errors.dropped();
   result.errors = std::move(errors).take_sorted();
   return result;
 }
@@ -137,9 +139,10 @@ LoadResult load_config_file(const std::string& path, const ModelCatalog& models)
   return load_config_text(text.str(), models);
 }
 
-std::string format_errors(const std::vector<ConfigError>& errors, std::string_view source) {
+std::string format_errors(const std::vector<ConfigError>& errors, std::string_view source,
+                          std::size_t limit) {
   std::string out;
-  for (const auto& e : errors) {
+  for (const auto& e : std::span(errors).first(std::min(limit, errors.size()))) {
     out += sanitized(source);
     out += ": ";
     out += e.pointer.empty() ? std::string("(root)") : sanitized(e.pointer);

@@ -139,7 +139,17 @@ class TreeBuilder {
     return &parent.members.back().value;
   }
 
+  // Reports the value about to be placed if the document already holds kMaxValues.
+  bool room() {
+    if (next_ordinal_ < kMaxValues) return true;
+    errors_.push_back({pending_pointer(), "more than " + std::to_string(kMaxValues) +
+                                              " values in the document; a configuration is "
+                                              "never this large"});
+    return false;
+  }
+
   bool add_scalar(Node n) {
+    if (!room()) return false;
     place(std::move(n));
     if (stack_.empty()) done_ = true;
     return true;
@@ -151,6 +161,7 @@ class TreeBuilder {
                                                 " levels; a configuration is never this deep"});
       return false;
     }
+    if (!room()) return false;
     Node n;
     n.kind = kind;
     const std::string token = pending_token();

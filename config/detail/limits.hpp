@@ -21,4 +21,17 @@ inline constexpr double kMaxHangTimeoutS = 86400.0;  // runtime.hang_timeout_s
 inline constexpr int kMaxConsecutiveRejections = 1000000;
 inline constexpr long kMaxConsistencyWindowCycles = 100000;  // consistency_window_s / period_s
 
+// What start-up would refuse. The runtime counts the poll period, the wall-clock cycle period
+// (period_s / time_scale) and the deadline in whole nanoseconds; DDS takes a period of at most
+// 24 h; the points fused in a cycle are published as a 64-bit mask.
+inline constexpr double kMinTickS = 1e-9;
+inline constexpr double kMaxWallPeriodS = 86400.0;
+inline constexpr std::size_t kMaxMeasuredPoints = 64;  // per unit
+
+// Upper bounds of initial_std (the state's range) and process_noise (the range over
+// sqrt(kProcessNoiseSpanS): a random walk spanning it in an hour); kMaxUnboundedStd for both
+// when the state has no finite range.
+inline constexpr double kProcessNoiseSpanS = 3600.0;
+inline constexpr double kMaxUnboundedStd = 1e6;
+
 }  // namespace hvac_twin::config::detail

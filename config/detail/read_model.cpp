@@ -63,6 +63,20 @@ bool read_parameter(const plant::ParameterInfo& info, const Ref& value, Errors& 
   return false;
 }
 
+// Upper bounds of a state's uncertainty: its square enters the covariance, and 1e308 squared
+// was an infinite covariance (a numerical reset every cycle). A standard deviation wider than
+// the state's range says nothing the bounds do not; a random walk that spans the range in an hour
+// is as fast as any state drifts. A state without a finite range is capped at kMaxUnboundedStd.
+double max_initial_std(const plant::StateInfo& s) {
+  const double width = s.max - s.min;
+  return std::isfinite(width) && width > 0.0 ? width : kMaxUnboundedStd;
+}
+double max_process_noise(const plant::StateInfo& s) {
+  const double width = s.max - s.min;
+  return std::isfinite(width) && width > 0.0 ? width / std::sqrt(kProcessNoiseSpanS)
+                                             : kMaxUnboundedStd;
+}
+
 }  // namespace
 
 ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& models) {
@@ -155,7 +169,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   ObjectReader r(ref, errors);
   const bool period_ok = r.number("period_s", e.period_s, positive(kMaxPeriodS), false, "s");
   const bool deadline_ok =
-      r.number("deadline_s", e.deadline_s, positive(kMaxDeadlineS), false, "s");
+      r.number("deadline_s", e.deadline_s, closed(kMinTickS, kMaxDeadlineS), false, "s");
   r.number("nis_gate", e.nis_gate, positive());
   r.integer("max_consecutive_rejections", e.max_consecutive_rejections, 1,
             kMaxConsecutiveRejections);
@@ -191,13 +205,14 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
     });
   };
   read_state_map(
-      "process_noise", e.process_noise, [](const plant::StateInfo&) { return at_least(0.0); },
-      "/sqrt(s)");
+      "process_noise", e.process_noise,
+      [](const plant::StateInfo& s) { return closed(0.0, max_process_noise(s)); }, "/sqrt(s)");
   read_state_map(
       "initial_state", e.initial_state,
       [](const plant::StateInfo& s) { return closed(s.min, s.max); }, "");
   read_state_map(
-      "initial_std", e.initial_std, [](const plant::StateInfo&) { return positive(); }, "");
+      "initial_std", e.initial_std,
+      [](const plant::StateInfo& s) { return positive(max_initial_std(s)); }, "");
 
   const Ref noise = r.require("measurement_noise");
   const auto outputs = layout ? names_of(layout->outputs) : std::vector<std::string>{};
@@ -236,9 +251,19 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.finish();
 
   if (!r.ok()) return e;  // cross-checks below report at the estimator object
-  if (period_ok && deadline_ok && context.time_scale) {
+  if (period_ok && context.time_scale) {
     const double wall_period = e.period_s / *context.time_scale;
-    if (e.deadline_s > wall_period) {
+    const bool wall_ok = closed(kMinTickS, kMaxWallPeriodS).contains(wall_period);
+    if (!wall_ok) {
+      const Ref at = r.get("period_s").present() ? r.get("period_s") : r.ref();
+      errors.add(*at.node, at.pointer,
+                 "the wall-clock period period_s / runtime.time_scale = " +
+                     format_number(e.period_s) + " / " + format_number(*context.time_scale) +
+                     " = " + format_number(wall_period) + " s; expected a number in [" +
+                     format_number(kMinTickS) + ", " + format_number(kMaxWallPeriodS) +
+                     "] s (the runtime counts it in whole nanoseconds, DDS takes at most 24 h)");
+    }
+    if (wall_ok && deadline_ok && e.deadline_s > wall_period) {
       const Ref at = r.get("deadline_s").present() ? r.get("deadline_s") : r.ref();
       errors.add(*at.node, at.pointer,
                  "deadline_s (" + format_number(e.deadline_s) +

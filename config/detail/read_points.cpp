@@ -1,6 +1,12 @@
 // Reader for a unit's points: each point's fields, its model signal and unit, and the rules
 // between points (unique names, no overlapping registers, every required model input fed once).
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <iterator>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
 
 #include "config/detail/limits.hpp"
 #include "config/detail/sections.hpp"
@@ -16,10 +22,36 @@ struct PointResult {
   bool type_ok = false;
   bool kind_ok = false;
   bool name_ok = false;
+  bool role_ok = false;
   bool feeds_ok = false;  // role and signal valid (and the signal exists when it can be checked)
   Ref name;
   Ref address;
   Ref signal;
+};
+
+// The first point of each register of each kind, filled in point order: the earlier points a
+// point overlaps are the owners of its registers, found in O(1) (was a pairwise O(n^2) scan).
+class RegisterOwners {
+ public:
+  // The first point owning one of `p`'s registers (`index` if none), then claims the free ones.
+  std::size_t claim(const PointConfig& p, std::size_t index) {
+    auto& owner = owners_[static_cast<std::size_t>(p.kind)];
+    if (owner.empty()) owner.assign(kRegisters, kFree);
+    std::size_t first = index;
+    const auto begin = static_cast<std::size_t>(p.address);
+    for (std::size_t a = begin; a < begin + static_cast<std::size_t>(register_count(p.type)); ++a) {
+      if (owner[a] == kFree)
+        owner[a] = index;
+      else
+        first = std::min(first, owner[a]);
+    }
+    return first;
+  }
+
+ private:
+  static constexpr std::size_t kRegisters = 65536;
+  static constexpr std::size_t kFree = static_cast<std::size_t>(-1);
+  std::array<std::vector<std::size_t>, std::size(kRegisterKinds)> owners_;
 };
 
 std::vector<std::string> signal_names(const std::vector<plant::SignalInfo>& list) {
@@ -134,7 +166,7 @@ PointResult read_point(const Ref& ref, Errors& errors, const PointContext& conte
   read_range(r, p);
   const bool stale_ok =
       r.number("stale_after_s", p.stale_after_s, positive(kMaxStaleAfterS), false, "s");
-  const bool role_ok = r.choice<PointRole>("role", p.role, kPointRoleNames, kPointRoles);
+  out.role_ok = r.choice<PointRole>("role", p.role, kPointRoleNames, kPointRoles);
   out.signal = r.require("signal");
   bool signal_ok = false;
   if (out.signal.present()) {
@@ -171,7 +203,7 @@ PointResult read_point(const Ref& ref, Errors& errors, const PointContext& conte
                    format_number(*context.poll_period_s) +
                    " s), or the point turns STALE between polls");
   }
-  out.feeds_ok = role_ok && signal_ok;
+  out.feeds_ok = out.role_ok && signal_ok;
   if (out.feeds_ok && context.layout != nullptr) {
     const plant::SignalInfo* signal = resolve_signal(out, errors, context);
     out.feeds_ok = signal != nullptr;
@@ -204,33 +236,28 @@ PointsSection read_points(const Ref& ref, Errors& errors, const PointContext& co
   for (std::size_t i = 0; i < ref.node->elements.size(); ++i)
     results.push_back(read_point(ref.at(i), errors, context));
 
-  std::map<std::string, std::string> fed_by;  // model input -> point name
+  std::map<std::string, std::string> fed_by;                      // model input -> point name
+  std::unordered_map<std::string_view, std::size_t> first_named;  // name -> first point
+  RegisterOwners owners;
+  std::size_t measured = 0;
   for (std::size_t i = 0; i < results.size(); ++i) {
     const PointResult& p = results[i];
     const PointConfig& c = p.config;
-    for (std::size_t j = 0; j < i; ++j) {
-      const PointResult& q = results[j];
-      if (p.name_ok && q.name_ok && c.name == q.config.name) {
+    if (p.name_ok) {
+      if (const auto [it, first] = first_named.try_emplace(c.name, i); !first)
         errors.add(*p.name.node, p.name.pointer,
                    "duplicate point name " + quote(c.name) + "; also the name of " +
-                       child_pointer(ref.pointer, j));
-        break;
-      }
+                       child_pointer(ref.pointer, it->second));
     }
     if (p.address_ok && p.type_ok && p.kind_ok) {
-      for (std::size_t j = 0; j < i; ++j) {
-        const PointResult& q = results[j];
-        if (!(q.address_ok && q.type_ok && q.kind_ok) || q.config.kind != c.kind) continue;
-        const int p_end = c.address + register_count(c.type);
-        const int q_end = q.config.address + register_count(q.config.type);
-        if (c.address < q_end && q.config.address < p_end) {
-          errors.add(*p.address.node, p.address.pointer,
-                     register_span(c) + " overlap " + register_span(q.config) + " of point " +
-                         quote(q.config.name) + " (" + child_pointer(ref.pointer, j) + ")");
-          break;
-        }
+      if (const auto j = owners.claim(c, i); j < i) {
+        const PointConfig& q = results[j].config;
+        errors.add(*p.address.node, p.address.pointer,
+                   register_span(c) + " overlap " + register_span(q) + " of point " +
+                       quote(q.name) + " (" + child_pointer(ref.pointer, j) + ")");
       }
     }
+    if (p.role_ok && c.role == PointRole::kMeasured) ++measured;
     if (!p.feeds_ok) {
       out.complete = false;
     } else if (c.role == PointRole::kMeasured) {
@@ -247,6 +274,11 @@ PointsSection read_points(const Ref& ref, Errors& errors, const PointContext& co
   for (auto& p : results)
     out.points.push_back(std::move(p.config));
 
+  if (measured > kMaxMeasuredPoints)
+    errors.add(*ref.node, ref.pointer,
+               std::to_string(measured) + " points have role \"measured\"; a unit takes at most " +
+                   std::to_string(kMaxMeasuredPoints) +
+                   " (the points fused in a cycle are published as a 64-bit mask)");
   if (context.layout == nullptr || !out.complete) return out;
   for (const auto& input : context.layout->inputs) {
     if (!std::isnan(input.default_value) || fed_by.contains(input.name)) continue;

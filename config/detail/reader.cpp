@@ -72,12 +72,28 @@ std::string describe_type_and_range(const char* what, const Interval& allowed,
 }  // namespace
 
 void Errors::add(const Node& at, std::string pointer, std::string message) {
-  issues_.push_back({at.ordinal, {std::move(pointer), std::move(message)}});
+  Issue issue{at.ordinal, found_++, {std::move(pointer), std::move(message)}};
+  if (issues_.size() == kMaxKeptErrors) {
+    ++dropped_;
+    if (!before(issue, issues_.front())) return;  // after every error kept
+    std::pop_heap(issues_.begin(), issues_.end(), before);
+    issues_.back() = std::move(issue);
+  } else {
+    issues_.push_back(std::move(issue));
+  }
+  std::push_heap(issues_.begin(), issues_.end(), before);
+}
+
+bool Errors::skip(const Node& at) {
+  // A later error at the same value sorts after the one on top: dropped too.
+  if (issues_.size() < kMaxKeptErrors || at.ordinal < issues_.front().ordinal) return false;
+  ++found_;
+  ++dropped_;
+  return true;
 }
 
 std::vector<ConfigError> Errors::take_sorted() && {
-  std::stable_sort(issues_.begin(), issues_.end(),
-                   [](const Issue& a, const Issue& b) { return a.ordinal < b.ordinal; });
+  std::sort_heap(issues_.begin(), issues_.end(), before);
   std::vector<ConfigError> out;
   out.reserve(issues_.size());
   for (auto& issue : issues_)
@@ -307,6 +323,7 @@ void ObjectReader::finish() {
   for (const auto& m : ref_.node->members) {
     if (!seen.insert(m.key).second) continue;  // a duplicate: reported by report_duplicate_keys
     if (std::find(known_.begin(), known_.end(), m.key) != known_.end()) continue;
+    if (errors_.skip(m.value)) continue;
     std::string message = "unknown key " + quote(m.key);
     if (const auto guess = did_you_mean(m.key, known_))
       message += "; did you mean " + quote(*guess) + "?";

@@ -19,21 +19,32 @@
 
 namespace hvac_twin::config::detail {
 
-// Errors with the document position of the value they are about.
+// Errors with the document position of the value they are about. Keeps the first
+// kMaxKeptErrors in document order (a heap ordered by position) and counts the others, so that a
+// file of a million unknown keys does not hold a million messages.
 class Errors {
  public:
   void add(const Node& at, std::string pointer, std::string message);
+  // Counts an error at `at` and returns true if add() would drop it: the caller then need not
+  // build its message (a hostile file's millionth unknown key costs no edit distances).
+  bool skip(const Node& at);
   [[nodiscard]] bool empty() const { return issues_.empty(); }
-  [[nodiscard]] std::size_t size() const { return issues_.size(); }
-  // The errors in document order (ties keep the order they were found in).
+  [[nodiscard]] std::size_t dropped() const { return dropped_; }  // found, not kept
+  // The errors kept, in document order (ties keep the order they were found in).
   [[nodiscard]] std::vector<ConfigError> take_sorted() &&;
 
  private:
   struct Issue {
     std::size_t ordinal;
+    std::size_t found;  // ties at one value: the order they were found in
     ConfigError error;
   };
-  std::vector<Issue> issues_;
+  static bool before(const Issue& a, const Issue& b) {
+    return a.ordinal != b.ordinal ? a.ordinal < b.ordinal : a.found < b.found;
+  }
+  std::vector<Issue> issues_;  // a max-heap by before(): the last error kept on top
+  std::size_t found_ = 0;
+  std::size_t dropped_ = 0;
 };
 
 // A value of the document and its pointer; node == nullptr when the value is absent.

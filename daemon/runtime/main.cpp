@@ -1,6 +1,8 @@
 // hvac-twind: the hvac-twin estimation daemon.
 #include <signal.h>
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -26,7 +28,7 @@ void usage(std::FILE* to) {
                "Modbus TCP, estimates what is not measured, publishes it over DDS.\n"
                "\n"
                "  --config FILE        configuration (default %s)\n"
-               "  --check-config FILE  validate FILE, print every error, exit 0 or 78\n"
+               "  --check-config FILE  validate FILE, print its errors, exit 0 or 78\n"
                "  --log-level LEVEL    trace|debug|info|warn|error (overrides the file)\n"
                "  --version            print the version\n"
                "\n"
@@ -42,6 +44,12 @@ void usage(std::FILE* to) {
 
 hvac_twin::config::LoadResult load(const std::string& path) {
   return hvac_twin::config::load_config_file(path, hvac_twin::plant::model_schemas());
+}
+
+// Prints the first config::kMaxShownErrors errors of `result`; returns how many it left out.
+std::size_t print_errors(const hvac_twin::config::LoadResult& result, const std::string& path) {
+  std::fputs(hvac_twin::config::format_errors(result.errors, path).c_str(), stderr);
+  return result.error_count() - std::min(result.errors.size(), hvac_twin::config::kMaxShownErrors);
 }
 
 bool parse_number(const char* text, double& out) {
@@ -70,8 +78,10 @@ int main(int argc, char** argv) {
       const std::string path = argv[++i];
       const auto result = load(path);
       if (!result.errors.empty()) {
-        std::fputs(hvac_twin::config::format_errors(result.errors, path).c_str(), stderr);
-        std::fprintf(stderr, "%s: %zu error(s)\n", path.c_str(), result.errors.size());
+        const std::size_t hidden = print_errors(result, path);
+        std::fprintf(stderr, "%s: %zu error(s)", path.c_str(), result.error_count());
+        if (hidden > 0) std::fprintf(stderr, ", %zu more not shown", hidden);
+        std::fputc('\n', stderr);
         return hvac_twin::config::kExitConfigError;
       }
       std::printf("%s: valid (%zu unit(s))\n", path.c_str(), result.config->units.size());
@@ -96,8 +106,10 @@ int main(int argc, char** argv) {
 
   auto result = load(config_path);
   if (!result.errors.empty()) {
-    std::fputs(hvac_twin::config::format_errors(result.errors, config_path).c_str(), stderr);
-    std::fprintf(stderr, "hvac-twind: invalid configuration, not starting\n");
+    const std::size_t hidden = print_errors(result, config_path);
+    std::fprintf(stderr, "hvac-twind: invalid configuration, ");
+    if (hidden > 0) std::fprintf(stderr, "%zu more error(s) not shown; ", hidden);
+    std::fprintf(stderr, "not starting\n");
     return hvac_twin::config::kExitConfigError;
   }
   hvac_twin::config::Config config = std::move(*result.config);

@@ -40,6 +40,16 @@ std::vector<std::string> lines(const std::string& text) {
   return out;
 }
 
+// The demo text with `count` more measured points (holding registers 100, 101, ...).
+std::string with_measured_points(int count) {
+  std::string points = "\"points\": [";
+  for (int k = 0; k < count; ++k)
+    points += R"({"name": "extra_)" + std::to_string(k) + R"(", "address": )" +
+              std::to_string(100 + k) +
+              R"(, "unit": "degC", "range": [-20, 50], "signal": "zone_air_temperature"},)";
+  return edited({{"\"points\": [", points}});
+}
+
 struct Case {
   std::string name;
   std::string text;
@@ -148,6 +158,29 @@ std::vector<Case> cases() {
       {"truncated", demo_text().substr(0, 700), {"(root)"}, "invalid JSON"},
       {"deep-nesting", big_nesting, {deepest}, "nesting deeper than 64 levels"},
       {"not-an-object", "[1, 2, 3]", {"(root)"}, "expected an object"},
+      // Refused at start-up (exit 1) or crashed the poller, after the check had passed them:
+      // the fused points of a cycle are a 64-bit mask; the runtime counts periods and the
+      // deadline in whole nanoseconds; DDS takes a period of at most 24 h.
+      {"65-measured-points",
+       with_measured_points(64),
+       {"/units/0/points"},
+       "65 points have role \"measured\""},
+      {"wall-period-rounds-to-0-ns",
+       edited({{"\"period_s\": 60", "\"period_s\": 1e-12, \"consistency_window_s\": 1e-10"},
+               {"\"deadline_s\": 0.5", "\"deadline_s\": 1e-15"}}),
+       {"/units/0/estimator/period_s", "/units/0/estimator/deadline_s"},
+       "[1e-9, 86400]"},
+      {"wall-period-over-24-h",
+       edited({{"\"period_s\": 60", "\"period_s\": 86400"},
+               {"\"time_scale\": 60", "\"time_scale\": 0.5"}}),
+       {"/units/0/estimator/period_s"},
+       "172800 s"},
+      {"poll-period-rounds-to-0-ns",
+       edited({{"\"poll_period_s\": 0.25", "\"poll_period_s\": 1e-12"},
+               {"\"response_timeout_s\": 0.1", "\"response_timeout_s\": 1e-13"},
+               {"\"byte_timeout_s\": 0.05", "\"byte_timeout_s\": 1e-14"}}),
+       {"/units/0/modbus/poll_period_s"},
+       "[1e-9, 3600]"},
   };
 }
 
@@ -192,11 +225,53 @@ TEST_CASE("check-config: one line per error, at its JSON pointer, and exit 78",
   REQUIRE(big.wait(20s) == 78);
   CHECK(lines(big.err()).size() == 2);
 
-  // The daemon itself refuses to start on any of them, with the same status.
-  const std::string file = (dir / "duplicate-key.json").string();
+  // The daemon itself refuses to start on any of them, with the same status; among them those
+  // that start-up refused with status 1.
+  for (const std::string name :
+       {"duplicate-key", "65-measured-points", "wall-period-rounds-to-0-ns",
+        "wall-period-over-24-h", "poll-period-rounds-to-0-ns"}) {
+    INFO("case " << name);
+    const std::string file = (dir / (name + ".json")).string();
+    Process daemon(HVAC_TWIND_EXE, {"--config", file}, file + ".d.out", file + ".d.err");
+    REQUIRE(daemon.wait(20s) == 78);
+    CHECK_THAT(daemon.err(), Catch::Contains("not starting"));
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// A hostile file: a million unknown keys printed a million lines. The first 100 errors are
+// printed and one line says how many more there were, by --check-config and at start-up.
+TEST_CASE("check-config and start-up print at most 100 errors and count the rest",
+          "[integration][cli][config]") {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("hvac-twin-cap-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::string keys;
+  for (int k = 0; k < 1000; ++k)
+    keys += "\"unknown_" + std::to_string(k) + "\": 0, ";
+  const std::string file = (dir / "unknown-keys.json").string();
+  std::ofstream(file, std::ios::binary) << edited({{"{", "{" + keys}});
+
+  Process check(HVAC_TWIND_EXE, {"--check-config", file}, file + ".out", file + ".err");
+  REQUIRE(check.wait(20s) == 78);
+  const auto err = lines(check.err());
+  INFO("stderr:\n" << check.err());
+  REQUIRE(err.size() <= 101);
+  REQUIRE(err.size() == 101);
+  for (int k = 0; k < 100; ++k)  // the first 100, in document order
+    CHECK(err[static_cast<std::size_t>(k)].rfind(
+              file + ": /unknown_" + std::to_string(k) + ": unknown key", 0) == 0);
+  CHECK(err.back() == file + ": 1000 error(s), 900 more not shown");
+
   Process daemon(HVAC_TWIND_EXE, {"--config", file}, file + ".d.out", file + ".d.err");
   REQUIRE(daemon.wait(20s) == 78);
-  CHECK_THAT(daemon.err(), Catch::Contains("not starting"));
+  const auto daemon_err = lines(daemon.err());
+  INFO("daemon stderr:\n" << daemon.err());
+  REQUIRE(daemon_err.size() <= 101);
+  CHECK(daemon_err.size() == 101);
+  CHECK_THAT(daemon_err.back(),
+             Catch::Contains("900 more error(s) not shown") && Catch::Contains("not starting"));
   std::filesystem::remove_all(dir);
 }
 

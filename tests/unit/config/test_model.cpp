@@ -1,9 +1,11 @@
 // The model section and the estimator: names and values checked against the catalog, the rules
 // between estimator, points and runtime, and many errors in one document.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <stdexcept>
 
 #include "config_test_support.hpp"
+#include "plant_models/catalog.hpp"
 
 namespace hvac_twin::config {
 namespace {
@@ -19,6 +21,18 @@ json& model(json& j) {
 }
 json& estimator(json& j) {
   return j["units"][0]["estimator"];
+}
+
+// The layout of a model of the real catalog with its default parameters.
+plant::ModelLayout default_layout(std::string_view type) {
+  for (const auto& schema : plant::model_schemas()) {
+    if (schema.type != type) continue;
+    plant::ParameterMap parameters;
+    for (const auto& p : schema.parameters)
+      parameters[p.name] = p.default_value;
+    return schema.layout(parameters);
+  }
+  throw std::invalid_argument("no model " + std::string(type) + " in the catalog");
 }
 
 TEST_CASE("model type must be in the catalog, the message lists the known types", "[config]") {
@@ -85,7 +99,7 @@ TEST_CASE("estimator maps name existing states with sane values", "[config]") {
   j = demo_json();
   estimator(j)["process_noise"]["Q_int"] = -1;
   require_single_error(load_json(j), "/units/0/estimator/process_noise/Q_int",
-                       {"expected a number >= 0 [W/sqrt(s)]; got -1"});
+                       {"expected a number in [0, ", "[W/sqrt(s)]; got -1"});
   estimator(j)["process_noise"]["Q_int"] = 0;
   test::require_ok(load_json(j));
 
@@ -96,7 +110,7 @@ TEST_CASE("estimator maps name existing states with sane values", "[config]") {
   j = demo_json();
   estimator(j)["initial_std"] = {{"T_air", 0}};
   require_single_error(load_json(j), "/units/0/estimator/initial_std/T_air",
-                       {"expected a number > 0 [degC]; got 0"});
+                       {"expected a number in (0, 110] [degC]; got 0"});
   estimator(j)["initial_std"] = {{"T_air", 0.5}, {"Q_int", 100}};
   estimator(j)["initial_state"] = {{"T_air", 21.5}, {"Q_int", 500}};
   const LoadResult ok = load_json(j);
@@ -106,6 +120,38 @@ TEST_CASE("estimator maps name existing states with sane values", "[config]") {
   estimator(j)["initial_state"] = 5;
   require_single_error(load_json(j), "/units/0/estimator/initial_state",
                        {"expected an object; got 5"});
+}
+
+// 1e308 passed, and its square is an infinite covariance: a numerical reset every cycle.
+TEST_CASE("initial_std and process_noise are bounded by the state's range", "[config]") {
+  const plant::ModelLayout layout = default_layout("zone_rc");
+  REQUIRE_FALSE(layout.states.empty());
+  for (const auto& s : layout.states) {
+    INFO("state " << s.name);
+    const double width = s.max - s.min;
+    REQUIRE(std::isfinite(width));
+    const double q_max = width / std::sqrt(3600.0);  // an hour's random walk spans the range
+    const std::string std_at = "/units/0/estimator/initial_std/" + s.name;
+    const std::string q_at = "/units/0/estimator/process_noise/" + s.name;
+    auto j = demo_json();
+    estimator(j)["initial_std"] = {{s.name, width}};
+    estimator(j)["process_noise"] = {{s.name, q_max}};
+    test::require_ok(load_json(j));
+    estimator(j)["initial_std"] = {{s.name, 1e308}};
+    require_single_error(load_json(j), std_at, {"expected a number in (0, ", s.unit + "]"});
+    estimator(j)["initial_std"] = {{s.name, width * (1.0 + 1e-9)}};
+    require_single_error(load_json(j), std_at, {"expected a number in (0, "});
+    estimator(j)["initial_std"] = {{s.name, width}};
+    estimator(j)["process_noise"] = {{s.name, 1e308}};
+    require_single_error(load_json(j), q_at, {"expected a number in [0, ", s.unit + "/sqrt(s)]"});
+    estimator(j)["process_noise"] = {{s.name, q_max * (1.0 + 1e-9)}};
+    require_single_error(load_json(j), q_at, {"expected a number in [0, "});
+  }
+  // The message gives the interval: T_air's range is [-40, 70] degC, 110 wide.
+  auto j = demo_json();
+  estimator(j)["initial_std"] = {{"T_air", 1e308}};
+  require_single_error(load_json(j), "/units/0/estimator/initial_std/T_air",
+                       {"expected a number in (0, 110] [degC]"});
 }
 
 TEST_CASE("every measured output has a measurement_noise entry with sigma > 0", "[config]") {
@@ -148,7 +194,7 @@ TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
   j = demo_json();
   estimator(j)["deadline_s"] = 0;
   require_single_error(load_json(j), "/units/0/estimator/deadline_s",
-                       {"expected a number in (0, 3600] [s]; got 0"});
+                       {"expected a number in [1e-9, 3600] [s]; got 0"});
   j = demo_json();
   estimator(j)["period_s"] = -60;
   require_single_error(load_json(j), "/units/0/estimator/period_s", {"(0, 86400]", "got -60"});
@@ -165,6 +211,36 @@ TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
   estimator(j).erase("deadline_s");
   j["runtime"]["time_scale"] = 120;
   require_single_error(load_json(j), "/units/0/estimator", {"deadline_s (1 s) must not exceed"});
+}
+
+// The runtime counts the wall-clock period and the deadline in whole nanoseconds, and DDS takes
+// a period of at most 24 h: start-up refused (exit 1) what --check-config had passed.
+TEST_CASE("the wall-clock period is 1 ns to 24 h, the deadline at least 1 ns", "[config]") {
+  auto j = demo_json();
+  estimator(j)["period_s"] = 1e-12;              // 1.7e-14 s of wall time at time_scale 60
+  estimator(j)["deadline_s"] = 1e-15;            // within that period
+  estimator(j)["consistency_window_s"] = 1e-10;  // 100 cycles
+  const LoadResult r = load_json(j);
+  INFO(test::describe(r));
+  CHECK_FALSE(r.config.has_value());
+  CHECK(r.errors.size() == 2);
+  CHECK(test::has_error(r, "/units/0/estimator/period_s",
+                        {"period_s / runtime.time_scale = 1e-12 / 60 = ", "[1e-9, 86400]"}));
+  CHECK(test::has_error(r, "/units/0/estimator/deadline_s",
+                        {"expected a number in [1e-9, 3600] [s]; got 1e-15"}));
+  // Nanoseconds are enough.
+  estimator(j)["period_s"] = 120e-9;  // 2 ns of wall time
+  estimator(j)["deadline_s"] = 1e-9;
+  estimator(j)["consistency_window_s"] = 120e-9 * 30;
+  test::require_ok(load_json(j));
+
+  j = demo_json();
+  estimator(j)["period_s"] = 86400;
+  j["runtime"]["time_scale"] = 0.5;
+  require_single_error(load_json(j), "/units/0/estimator/period_s",
+                       {"= 86400 / 0.5 = 172800 s", "[1e-9, 86400]"});
+  j["runtime"]["time_scale"] = 1;
+  test::require_ok(load_json(j));
 }
 
 TEST_CASE("every error of a document is reported, not just the first", "[config]") {
@@ -221,14 +297,15 @@ ModelCatalog fake_catalog() {
   return {cells, broken};
 }
 
+// `more`: further members of the estimator, e.g. R"(, "initial_std": {"T0": 1})".
 std::string cells_config(std::string_view type, std::string_view parameters,
-                         std::string_view initial_state) {
+                         std::string_view initial_state, std::string_view more = "") {
   return R"({"site_id": "s", "units": [{"id": "u",
     "model": {"type": ")" +
          std::string(type) + R"(", "parameters": )" + std::string(parameters) + R"(},
     "points": [{"name": "t", "address": 0, "unit": "degC", "range": [0, 100], "signal": "T_out"}],
     "estimator": {"measurement_noise": {"T_out": 0.1}, "initial_state": )" +
-         std::string(initial_state) + "}}]}";
+         std::string(initial_state) + std::string(more) + "}}]}";
 }
 
 TEST_CASE("integer parameters must be integral, structural ones size the layout", "[config]") {
@@ -247,6 +324,23 @@ TEST_CASE("integer parameters must be integral, structural ones size the layout"
                        "/units/0/model/parameters/ua", {"expected a number in [0, 100]"});
   require_single_error(run("broken", "{}", "{}"), "/units/0/model/parameters",
                        {"model \"broken\" rejected these parameters: table file missing"});
+}
+
+// The fake catalog's states have no finite range: initial_std and process_noise are capped so
+// that their squares stay finite.
+TEST_CASE("initial_std and process_noise of a state without a finite range are capped",
+          "[config]") {
+  const ModelCatalog models = fake_catalog();
+  const auto run = [&](std::string_view more) {
+    return load_config_text(cells_config("cells", "{}", "{}", more), models);
+  };
+  test::require_ok(run(R"(, "initial_std": {"T0": 1e6}, "process_noise": {"T0": 1e6})"));
+  require_single_error(run(R"(, "initial_std": {"T0": 1e308})"),
+                       "/units/0/estimator/initial_std/T0",
+                       {"expected a number in (0, 1e6] [degC]; got 1e308"});
+  require_single_error(run(R"(, "process_noise": {"T1": 1e308})"),
+                       "/units/0/estimator/process_noise/T1",
+                       {"expected a number in [0, 1e6] [degC/sqrt(s)]; got 1e308"});
 }
 
 }  // namespace

@@ -1,5 +1,9 @@
 // Points: register layout, decoding fields, units, and how points feed the model.
 #include <catch2/catch.hpp>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "config_test_support.hpp"
 
@@ -113,6 +117,133 @@ TEST_CASE("registers of two points of the same kind must not overlap", "[config]
       {"input register 0 overlap input register 0 of point \"zone_temp\"", "/units/0/points/0"});
 }
 
+// "p17". (`"p" + std::to_string(k)` trips GCC 12's -Wrestrict false positive, bug 105329.)
+template <class Int>
+std::string numbered(std::string prefix, Int k) {
+  prefix += std::to_string(k);
+  return prefix;
+}
+
+// The errors whose message contains `word`, by pointer.
+std::map<std::string, std::string> errors_with(const LoadResult& r, std::string_view word) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : r.errors)
+    if (e.message.find(word) != std::string::npos) out[e.pointer] = e.message;
+  return out;
+}
+
+// Overlaps and duplicate names were found by comparing every pair of points (60 000 points took
+// 12 s). Whatever the method, the result is the pairwise rule's: a point whose registers overlap
+// those of an earlier point of the same kind is reported once, at its address, naming the first
+// such point; a name used before is reported at the later point, naming the first.
+TEST_CASE("overlaps and duplicate names among many points are those of the pairwise rule",
+          "[config]") {
+  std::mt19937 rng(17);
+  auto j = demo_json();
+  json& points = j["units"][0]["points"];
+  const json measured = points[0];
+  for (int k = 0; k < 3000; ++k) {
+    json p = measured;
+    p["register"] = rng() % 2 == 0 ? "holding" : "input";
+    p["type"] = rng() % 4 == 0 ? "float32" : "int16";
+    p["address"] = rng() % 4000;
+    p["name"] = numbered("p", rng() % 2900);  // many names repeat
+    points.push_back(p);
+  }
+  // Expected, pair by pair.
+  std::map<std::string, std::string> overlaps;
+  std::map<std::string, std::string> names;
+  const auto span = [](const json& p) {
+    const int first = p["address"].get<int>();
+    return std::pair{first, first + (p.value("type", "uint16") == "float32" ? 2 : 1)};
+  };
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const std::string at = "/units/0/points/" + std::to_string(i);
+    for (std::size_t k = 0; k < i; ++k) {
+      if (points[k]["name"] != points[i]["name"]) continue;
+      names[at + "/name"] = "/units/0/points/" + std::to_string(k);
+      break;
+    }
+    const auto [first, end] = span(points[i]);
+    for (std::size_t k = 0; k < i; ++k) {
+      const auto [other_first, other_end] = span(points[k]);
+      if (points[k]["register"] != points[i]["register"] || !(first < other_end) ||
+          !(other_first < end))
+        continue;
+      overlaps[at + "/address"] = "(/units/0/points/" + std::to_string(k) + ")";
+      break;
+    }
+  }
+  const LoadResult r = load_json(j);
+  const auto found_overlaps = errors_with(r, " overlap ");
+  const auto found_names = errors_with(r, "duplicate point name");
+  CHECK(overlaps.size() > 100);
+  CHECK(names.size() > 10);
+  CHECK(found_overlaps.size() == overlaps.size());
+  CHECK(found_names.size() == names.size());
+  for (const auto& [pointer, first] : overlaps) {
+    INFO(pointer << " should name " << first);
+    REQUIRE(found_overlaps.contains(pointer));
+    CHECK_THAT(found_overlaps.at(pointer), Catch::EndsWith(first));
+  }
+  for (const auto& [pointer, first] : names) {
+    INFO(pointer << " should name " << first);
+    REQUIRE(found_names.contains(pointer));
+    CHECK_THAT(found_names.at(pointer), Catch::EndsWith(first));
+  }
+}
+
+TEST_CASE("60 000 points: the overlaps and the duplicate name planted among them", "[config]") {
+  auto j = demo_json();
+  json& points = j["units"][0]["points"];
+  const std::size_t first = points.size();
+  const json measured = points[0];
+  constexpr int kPoints = 60000;
+  for (int k = 0; k < kPoints; ++k) {  // holding registers 0 to 59999, one each
+    json p = measured;
+    p["register"] = "holding";
+    p["address"] = k;
+    p["name"] = numbered("p", k);
+    points.push_back(p);
+  }
+  const auto at = [&](int k) { return "/units/0/points/" + std::to_string(first + k); };
+  const auto add = [&](std::string name, std::string kind, std::string type, int address) {
+    json p = measured;
+    p["name"] = name;
+    p["register"] = kind;
+    p["type"] = type;
+    p["address"] = address;
+    points.push_back(p);
+  };
+  add("wide_last", "holding", "float32", kPoints - 1);  // k = kPoints: overlaps the last
+  add("after_last", "holding", "int16", kPoints);       // overlaps wide_last's second register
+  add("wide_middle", "holding", "int32", 29999);        // overlaps p29999 and p30000
+  add("input_five", "input", "int16", 5);               // another register space: free
+  add("p123", "holding", "int16", kPoints + 1);         // free registers, a used name
+  const LoadResult r = load_json(j);
+  INFO(test::describe(r).substr(0, 2000));
+  const auto overlaps = errors_with(r, " overlap ");
+  const auto names = errors_with(r, "duplicate point name");
+  CHECK(overlaps == std::map<std::string, std::string>{
+                        {at(kPoints) + "/address",
+                         "holding registers 59999-60000 overlap holding register 59999 of point "
+                         "\"p59999\" (" +
+                             at(kPoints - 1) + ")"},
+                        {at(kPoints + 1) + "/address",
+                         "holding register 60000 overlap holding registers 59999-60000 of point "
+                         "\"wide_last\" (" +
+                             at(kPoints) + ")"},
+                        {at(kPoints + 2) + "/address",
+                         "holding registers 29999-30000 overlap holding register 29999 of point "
+                         "\"p29999\" (" +
+                             at(29999) + ")"},
+                    });
+  CHECK(names == std::map<std::string, std::string>{
+                     {at(kPoints + 4) + "/name",
+                      "duplicate point name \"p123\"; also the name of " + at(123)}});
+  CHECK(r.errors.size() == overlaps.size() + names.size() + 1);  // + too many measured points
+}
+
 TEST_CASE("point names are [A-Za-z0-9_]+ and unique within the unit", "[config]") {
   auto j = demo_json();
   point(j, 1)["name"] = "zone_temp";
@@ -183,6 +314,31 @@ TEST_CASE("several measured points may share an output", "[config]") {
   second["name"] = "zone_temp_2";
   second["address"] = 10;
   j["units"][0]["points"].push_back(second);
+  test::require_ok(load_json(j));
+}
+
+// The daemon publishes the points fused in a cycle as a 64-bit mask, and refused more at
+// start-up (exit 1) after --check-config had passed them.
+TEST_CASE("a unit takes at most 64 measured points", "[config]") {
+  auto j = demo_json();
+  const json measured = point(j, 0);
+  for (int k = 1; k < 64; ++k) {
+    json extra = measured;
+    extra["name"] = "zone_temp_" + std::to_string(k);
+    extra["address"] = 100 + k;
+    j["units"][0]["points"].push_back(extra);
+  }
+  test::require_ok(load_json(j));  // 64 measured points
+  json extra = measured;
+  extra["name"] = "zone_temp_64";
+  extra["address"] = 164;
+  j["units"][0]["points"].push_back(extra);
+  require_single_error(load_json(j), "/units/0/points",
+                       {"65 points have role \"measured\"", "at most 64"});
+  // Points with other roles do not count.
+  j["units"][0]["points"].back()["role"] = "disturbance";
+  j["units"][0]["points"].back()["signal"] = "outdoor_temperature";
+  j["units"][0]["points"].erase(1);  // the other outdoor_temperature point
   test::require_ok(load_json(j));
 }
 
