@@ -190,4 +190,13 @@ TEST_CASE("repeated overruns degrade the estimates and stop the pings", "[integr
   CHECK(stack.daemon().running());  // degraded, not dead
   stack.daemon().signal(SIGTERM);
   CHECK(stack.daemon().wait(5s) == 0);
+  // The log says once that the pings stopped, and why (issue 17: it said nothing).
+  const std::string log = stack.daemon().err();
+  INFO("daemon stderr:\n" << log);
+  const auto stopped =
+      log.find("watchdog pings stopped: unit zone1 overran its deadline 3 cycles in a row");
+  CHECK(stopped != std::string::npos);
+  CHECK(stopped == log.rfind("watchdog pings stopped"));
+  CHECK_THAT(log,
+             Catch::Contains("systemd restarts the service if this lasts WatchdogSec (1.000 s)"));
 }
