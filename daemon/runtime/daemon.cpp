@@ -1,5 +1,7 @@
 #include "daemon/runtime/daemon.hpp"
 
+#include <spdlog/fmt/fmt.h>
+
 #include <algorithm>
 #include <string>
 
@@ -56,12 +58,14 @@ void Daemon::start() {
           static_cast<double>(notifier_.watchdog_interval_ns()) * 1e-9);
   }
   supervisor_ = std::make_unique<CycleSupervisor>(
-      pipelines_.size(), notifier_, sup, [this](std::size_t unit, std::int64_t running_ns) {
+      pipelines_.size(), notifier_, sup,
+      [this](std::size_t unit, std::int64_t running_ns) {
         log_->critical("unit {}: cycle hung for {:.1f} s{}", pipelines_[unit]->id(),
                        static_cast<double>(running_ns) * 1e-9,
                        config_.runtime.hang_exit ? "; exiting so the service is restarted" : "");
         log_->flush();
-      });
+      },
+      [this](const PingChange& c) { log_ping_change(c); });
   supervisor_->start();
 
   const std::int64_t start = monotonic_ns();
@@ -90,6 +94,27 @@ void Daemon::run_unit(std::size_t index) {
       log_->warn("unit {}: cycle {} overran its deadline: {:.1f} ms", pipeline.id(), tick.index,
                  static_cast<double>(out.cycle_ns) * 1e-6);
     supervisor_->cycle_finished(index, monotonic_ns(), out.overrun);
+  }
+}
+
+void Daemon::log_ping_change(const PingChange& c) const {
+  const auto& unit = pipelines_[c.unit]->id();
+  if (c.stopped) {
+    const std::int64_t watchdog_ns = notifier_.watchdog_interval_ns();
+    const std::string consequence =
+        watchdog_ns > 0
+            ? fmt::format("systemd restarts the service if this lasts WatchdogSec ({:.3f} s)",
+                          static_cast<double>(watchdog_ns) * 1e-9)
+            : std::string("no systemd watchdog is configured, so nothing restarts it");
+    log_->warn(
+        "watchdog pings stopped: unit {} overran its deadline {} cycles in a row "
+        "(runtime.overruns_before_watchdog_stop {}); {}",
+        unit, c.consecutive_overruns, config_.runtime.overruns_before_watchdog_stop, consequence);
+  } else {
+    log_->info(
+        "watchdog pings resumed: unit {} completed a cycle within its deadline after {} "
+        "overruns in a row; pings were withheld for {:.1f} s",
+        unit, c.consecutive_overruns, static_cast<double>(c.withheld_ns) * 1e-9);
   }
 }
 

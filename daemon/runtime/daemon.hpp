@@ -34,6 +34,8 @@ class Daemon {
 
  private:
   void run_unit(std::size_t index);
+  // Logs, once each, that overruns stopped the watchdog pings (warning) and that they resumed.
+  void log_ping_change(const PingChange& change) const;
 
   config::Config config_;
   std::shared_ptr<spdlog::logger> log_;

@@ -52,6 +52,19 @@ std::size_t print_errors(const hvac_twin::config::LoadResult& result, const std:
   return result.error_count() - std::min(result.errors.size(), hvac_twin::config::kMaxShownErrors);
 }
 
+const char* signal_name(int sig) {
+  return sig == SIGTERM ? "SIGTERM" : "SIGINT";
+}
+
+// The signals hvac-twind waits for (sigwait in main), blocked for the whole process.
+sigset_t stop_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGINT);
+  return set;
+}
+
 bool parse_number(const char* text, double& out) {
   char* end = nullptr;
   out = std::strtod(text, &end);
@@ -61,6 +74,13 @@ bool parse_number(const char* text, double& out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // First thing: block the signals the daemon waits for, so that one arriving while the
+  // configuration loads or the units start stays pending and ends in a clean shut-down (exit 0,
+  // logged) instead of the default action (status 143, nothing logged). Every thread inherits
+  // this mask; the main thread alone takes the signals, with sigwait.
+  const sigset_t signals = stop_signals();
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
   std::string config_path = kDefaultConfig;
   std::string log_level;
   hvac_twin::runtime::FaultHooks hooks;
@@ -75,6 +95,8 @@ int main(int argc, char** argv) {
       std::printf("hvac-twind %s\n", HVAC_TWIN_VERSION);
       return 0;
     } else if (arg == "--check-config" && has_value) {
+      // A one-shot command: Ctrl-C or SIGTERM ends it at once, as it would any other tool.
+      pthread_sigmask(SIG_UNBLOCK, &signals, nullptr);
       const std::string path = argv[++i];
       const auto result = load(path);
       if (!result.errors.empty()) {
@@ -123,14 +145,13 @@ int main(int argc, char** argv) {
     return hvac_twin::config::kExitConfigError;
   }
 
-  // Every thread inherits this mask; the main thread alone takes the signals, with sigwait.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-
   log->info("hvac-twind {} starting with {}", HVAC_TWIN_VERSION, config_path);
+  // Asked to stop while the configuration loaded: nothing was started, so nothing to stop.
+  const timespec no_wait{};
+  if (const int early = sigtimedwait(&signals, nullptr, &no_wait); early > 0) {
+    log->info("{} received during start-up, exiting before the units start", signal_name(early));
+    return 0;
+  }
   hvac_twin::runtime::Daemon daemon(std::move(config), log, hooks);
   try {
     daemon.start();
@@ -140,7 +161,7 @@ int main(int argc, char** argv) {
   }
   int sig = 0;
   sigwait(&signals, &sig);
-  log->info("{} received, shutting down", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+  log->info("{} received, shutting down", signal_name(sig));
   daemon.stop();
   return 0;
 }

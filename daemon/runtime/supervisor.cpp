@@ -10,10 +10,12 @@ namespace hvac_twin::runtime {
 
 CycleSupervisor::CycleSupervisor(std::size_t units, const SystemdNotifier& notifier,
                                  SupervisorOptions options,
-                                 std::function<void(std::size_t, std::int64_t)> on_hang)
+                                 std::function<void(std::size_t, std::int64_t)> on_hang,
+                                 std::function<void(const PingChange&)> on_pings)
     : notifier_(notifier),
       options_(options),
       on_hang_(std::move(on_hang)),
+      on_pings_(std::move(on_pings)),
       units_(new UnitState[units]),
       count_(units) {}
 
@@ -40,28 +42,49 @@ void CycleSupervisor::cycle_started(std::size_t unit, std::int64_t now_ns) {
 
 bool CycleSupervisor::cycle_finished(std::size_t unit, std::int64_t now_ns, bool overrun) {
   units_[unit].cycle_start_ns.store(0);
-  std::lock_guard lock(mutex_);
-  UnitState& u = units_[unit];
-  u.consecutive_overruns = overrun ? u.consecutive_overruns + 1 : 0;
-  u.progressed = true;
-  for (std::size_t i = 0; i < count_; ++i) {
-    if (!units_[i].progressed || units_[i].consecutive_overruns >= options_.overrun_limit)
-      return false;
+  PingChange change;
+  bool changed = false;
+  bool pinged = false;
+  {
+    std::lock_guard lock(mutex_);
+    UnitState& u = units_[unit];
+    change.unit = unit;
+    change.consecutive_overruns = u.consecutive_overruns;
+    u.consecutive_overruns = overrun ? u.consecutive_overruns + 1 : 0;
+    u.progressed = true;
+    bool withheld = false, all_progressed = true;
+    for (std::size_t i = 0; i < count_; ++i) {
+      withheld = withheld || units_[i].consecutive_overruns >= options_.overrun_limit;
+      all_progressed = all_progressed && units_[i].progressed;
+    }
+    if (withheld != (withheld_since_ns_ >= 0)) {
+      changed = true;
+      change.stopped = withheld;
+      if (withheld) {
+        change.consecutive_overruns = u.consecutive_overruns;
+        withheld_since_ns_ = now_ns;
+      } else {
+        change.withheld_ns = now_ns - withheld_since_ns_;
+        withheld_since_ns_ = -1;
+      }
+    }
+    if (!withheld && all_progressed &&
+        (last_ping_ns_ == 0 || now_ns - last_ping_ns_ >= options_.min_ping_interval_ns)) {
+      for (std::size_t i = 0; i < count_; ++i)
+        units_[i].progressed = false;
+      last_ping_ns_ = now_ns;
+      notifier_.watchdog();
+      pings_.fetch_add(1);
+      pinged = true;
+    }
   }
-  if (last_ping_ns_ != 0 && now_ns - last_ping_ns_ < options_.min_ping_interval_ns) return false;
-  for (std::size_t i = 0; i < count_; ++i)
-    units_[i].progressed = false;
-  last_ping_ns_ = now_ns;
-  notifier_.watchdog();
-  pings_.fetch_add(1);
-  return true;
+  if (changed && on_pings_) on_pings_(change);
+  return pinged;
 }
 
 bool CycleSupervisor::pings_withheld() const {
   std::lock_guard lock(mutex_);
-  for (std::size_t i = 0; i < count_; ++i)
-    if (units_[i].consecutive_overruns >= options_.overrun_limit) return true;
-  return false;
+  return withheld_since_ns_ >= 0;
 }
 
 void CycleSupervisor::run() {

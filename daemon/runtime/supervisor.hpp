@@ -3,7 +3,9 @@
 // Liveness to systemd: WATCHDOG=1 is sent from the end of a completed cycle, and only when every
 // unit has completed a cycle since the previous ping and none has overrun its deadline
 // `overrun_limit` times in a row. A hung or persistently late estimator therefore stops the
-// pings and systemd restarts the service; a free-running timer would hide it.
+// pings and systemd restarts the service; a free-running timer would hide it. The moment the
+// overruns start withholding the pings, and the moment they stop doing so, are reported once
+// each through on_pings (the daemon logs them).
 //
 // Hang detection: a thread checks that no cycle has been running longer than hang_timeout. A hung
 // cycle is reported once through the callback; with hang_exit the process then exits with
@@ -11,7 +13,8 @@
 // when no systemd watchdog is configured.
 //
 // Threads: cycle_started()/cycle_finished() from each unit's cycle thread (a short lock, no
-// allocation); start()/stop() from the owner. The callback runs on the supervisor thread.
+// allocation); start()/stop() from the owner. on_hang runs on the supervisor thread; on_pings on
+// the cycle thread inside cycle_finished(), after the lock is released.
 #pragma once
 
 #include <atomic>
@@ -35,11 +38,24 @@ struct SupervisorOptions {
   std::int64_t check_interval_ns = 100'000'000;
 };
 
+// A change in whether overruns withhold the pings. Only the unit whose cycle just finished can
+// cause one: its overrun count reaching the limit (stopped), or its first cycle on time again
+// while no other unit is over the limit (resumed).
+struct PingChange {
+  bool stopped = false;          // true: pings now withheld; false: no longer withheld
+  std::size_t unit = 0;          // the unit whose cycle caused the change
+  int consecutive_overruns = 0;  // that unit's overruns in a row (resumed: before this cycle)
+  std::int64_t withheld_ns = 0;  // resumed: how long the pings were withheld [ns]
+};
+
 class CycleSupervisor {
  public:
   // on_hang(unit, running_for_ns) is called once per hung cycle, before a hang_exit.
+  // on_pings(change) is called once when overruns start withholding the pings and once when
+  // they stop doing so.
   CycleSupervisor(std::size_t units, const SystemdNotifier& notifier, SupervisorOptions options,
-                  std::function<void(std::size_t, std::int64_t)> on_hang);
+                  std::function<void(std::size_t, std::int64_t)> on_hang,
+                  std::function<void(const PingChange&)> on_pings = {});
   ~CycleSupervisor();
   CycleSupervisor(const CycleSupervisor&) = delete;
   CycleSupervisor& operator=(const CycleSupervisor&) = delete;
@@ -67,10 +83,12 @@ class CycleSupervisor {
   const SystemdNotifier& notifier_;
   SupervisorOptions options_;
   std::function<void(std::size_t, std::int64_t)> on_hang_;
+  std::function<void(const PingChange&)> on_pings_;
   std::unique_ptr<UnitState[]> units_;
   std::size_t count_;
   mutable std::mutex mutex_;
   std::int64_t last_ping_ns_ = 0;
+  std::int64_t withheld_since_ns_ = -1;  // guarded by mutex_; -1 = pings not withheld
   std::atomic<std::uint64_t> pings_{0};
   std::atomic<std::uint64_t> hangs_{0};
   std::mutex stop_mutex_;

@@ -180,6 +180,7 @@ PublishStatus UnitPublisher::publish(const HealthSample& s) noexcept {
   w.quality = detail::to_wire(s.quality);
   w.modbus_connected = s.modbus_connected;
   w.modbus_polls_ok = s.modbus_polls_ok;
+  w.modbus_polls_exception = s.modbus_polls_exception;
   w.modbus_polls_failed = s.modbus_polls_failed;
   w.modbus_reconnects = s.modbus_reconnects;
   detail::copy_cut(w.modbus_last_error, s.modbus_last_error);

@@ -86,6 +86,7 @@ HealthRecord convert(const hvac_twin_EstimatorHealth& w, dds_time_t source_ts) {
   r.quality = detail::from_wire(w.quality);
   r.modbus_connected = w.modbus_connected;
   r.modbus_polls_ok = w.modbus_polls_ok;
+  r.modbus_polls_exception = w.modbus_polls_exception;
   r.modbus_polls_failed = w.modbus_polls_failed;
   r.modbus_reconnects = w.modbus_reconnects;
   r.modbus_last_error = detail::view_bounded(w.modbus_last_error);

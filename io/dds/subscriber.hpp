@@ -65,6 +65,7 @@ struct HealthRecord {
   EstimateQuality quality = EstimateQuality::kNotReady;
   bool modbus_connected = false;
   std::uint64_t modbus_polls_ok = 0;
+  std::uint64_t modbus_polls_exception = 0;
   std::uint64_t modbus_polls_failed = 0;
   std::uint64_t modbus_reconnects = 0;
   std::string modbus_last_error;

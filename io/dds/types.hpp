@@ -105,8 +105,9 @@ struct HealthSample {
   std::uint64_t numerical_resets = 0;
   EstimateQuality quality = EstimateQuality::kNotReady;
   bool modbus_connected = false;
-  std::uint64_t modbus_polls_ok = 0;
-  std::uint64_t modbus_polls_failed = 0;
+  std::uint64_t modbus_polls_ok = 0;         // every request answered with data
+  std::uint64_t modbus_polls_exception = 0;  // answered, some request with an exception
+  std::uint64_t modbus_polls_failed = 0;     // transport or gateway failure, device down
   std::uint64_t modbus_reconnects = 0;
   std::string_view modbus_last_error;  // empty if none; cut to 128 bytes ending in "..."
   std::int64_t timestamp_ns = 0;       // CLOCK_REALTIME [ns], >= 0

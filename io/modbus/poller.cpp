@@ -191,6 +191,7 @@ bool Poller::try_connect() noexcept {
 }
 
 Poller::PollResult Poller::poll_once() noexcept {
+  bool exception = false;  // a request answered with an exception: its points failed
   for (const ReadRequest& request : plan_.requests) {
     if (stop_flag_.load()) return PollResult::kStopped;
     const ReadResult r = read_with_busy_retry(request);
@@ -215,6 +216,7 @@ Poller::PollResult Poller::poll_once() noexcept {
       }
       mark_points(request.first_point, request.point_count, PointQuality::kDeviceException,
                   r.exception_code);
+      exception = true;
     } else {
       ++work_status_.requests_failed;
       ++work_status_.polls_failed;
@@ -223,9 +225,13 @@ Poller::PollResult Poller::poll_once() noexcept {
     }
     publish();
   }
-  ++work_status_.polls_ok;
-  work_status_.last_poll_ok_ns = monotonic_ns();
-  backoff_s_ = device_.backoff_initial_s;
+  if (exception) {
+    ++work_status_.polls_exception;
+  } else {
+    ++work_status_.polls_ok;
+    work_status_.last_poll_ok_ns = monotonic_ns();
+  }
+  backoff_s_ = device_.backoff_initial_s;  // the device answered: the link works
   publish();
   return PollResult::kOk;
 }

@@ -18,6 +18,8 @@
 //  - any other exception (0x01-0x04, ...): that request's points DEVICE_EXCEPTION(code), no
 //    reconnect; the other requests go on.
 //  - decoded value not finite or outside [range_min, range_max]: OUT_OF_RANGE.
+// A poll counts in DeviceStatus as ok (every request answered with data), exception (answered,
+// but some request with an exception after the busy retries) or failed (transport or gateway).
 //
 // Threads: construct, start(), stop() and destroy from one owner thread; snapshot() from any
 // thread at any time. The event callback runs on the poller thread.
@@ -57,10 +59,13 @@ struct PointSample {
 struct DeviceStatus {
   bool running = false;               // the poller thread is running
   bool connected = false;             // a TCP connection is open
-  std::uint64_t polls_ok = 0;         // polls the device answered without transport or gateway
-                                      //   failure (exception replies included, see exceptions)
+  std::uint64_t polls_ok = 0;         // polls in which every request was answered with data
+  std::uint64_t polls_exception = 0;  // polls the device answered, but at least one request
+                                      //   with an exception (after the busy retries): those
+                                      //   points DEVICE_EXCEPTION, the poll not ok
   std::uint64_t polls_failed = 0;     // polls lost to a transport or gateway failure, or
                                       //   skipped because the device was down
+                                      //   (every poll counts once: ok, exception or failed)
   std::uint64_t deadline_misses = 0;  // poll deadlines skipped because a poll overran
   std::uint64_t connect_attempts = 0;
   std::uint64_t connect_failures = 0;

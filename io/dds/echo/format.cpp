@@ -79,6 +79,7 @@ Json to_json(const HealthRecord& r) {
               {"quality", to_string(r.quality)},
               {"modbus_connected", r.modbus_connected},
               {"modbus_polls_ok", r.modbus_polls_ok},
+              {"modbus_polls_exception", r.modbus_polls_exception},
               {"modbus_polls_failed", r.modbus_polls_failed},
               {"modbus_reconnects", r.modbus_reconnects},
               {"modbus_last_error", r.modbus_last_error},
@@ -194,11 +195,12 @@ std::string to_text(const HealthRecord& r) {
   char line[512];
   const int n = std::snprintf(
       line, sizeof line,
-      "%s %-8s health cycle %-8llu %7.1f ms (max %.1f)  %-9s modbus %s ok %llu fail %llu "
-      "reconnects %llu  overruns %llu gated %llu resets %llu",
+      "%s %-8s health cycle %-8llu %7.1f ms (max %.1f)  %-9s modbus %s ok %llu exception %llu "
+      "fail %llu reconnects %llu  overruns %llu gated %llu resets %llu",
       clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), static_cast<unsigned long long>(r.cycle),
       r.cycle_time_ms, r.cycle_time_max_ms, std::string(to_string(r.quality)).c_str(),
       r.modbus_connected ? "up  " : "DOWN", static_cast<unsigned long long>(r.modbus_polls_ok),
+      static_cast<unsigned long long>(r.modbus_polls_exception),
       static_cast<unsigned long long>(r.modbus_polls_failed),
       static_cast<unsigned long long>(r.modbus_reconnects),
       static_cast<unsigned long long>(r.overruns),

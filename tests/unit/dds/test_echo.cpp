@@ -133,10 +133,13 @@ TEST_CASE("echo formats: JSON has every field, text is one aligned line", "[dds]
 
   HealthRecord health;
   health.unit = "hp1";
+  health.modbus_polls_ok = 3;
+  health.modbus_polls_exception = 40;
+  health.modbus_polls_failed = 2;
   health.modbus_last_error = "timeout";
   const std::string health_text = echo::to_text_line(health);
   CHECK(health_text.find("health cycle 0") != std::string::npos);
-  CHECK(health_text.find("modbus DOWN") != std::string::npos);
+  CHECK(health_text.find("modbus DOWN ok 3 exception 40 fail 2 ") != std::string::npos);
   CHECK(health_text.find("last error: timeout") != std::string::npos);
 
   ObservationRecord obs;
@@ -281,6 +284,7 @@ TEST_CASE("hvac-twin-echo prints every sample as a JSON line over loopback", "[d
   health.quality = EstimateQuality::kDegraded;
   health.modbus_connected = true;
   health.modbus_polls_ok = 90;
+  health.modbus_polls_exception = 12;
   health.modbus_polls_failed = 1;
   health.modbus_last_error = "Connection timed out";
   health.timestamp_ns = t;
@@ -337,6 +341,7 @@ TEST_CASE("hvac-twin-echo prints every sample as a JSON line over loopback", "[d
   CHECK(h.at("quality") == "DEGRADED");
   CHECK(h.at("modbus_connected") == true);
   CHECK(h.at("modbus_polls_ok") == 90);
+  CHECK(h.at("modbus_polls_exception") == 12);
   CHECK(h.at("modbus_polls_failed") == 1);
   CHECK(h.at("modbus_reconnects") == 0);
   CHECK(h.at("modbus_last_error") == "Connection timed out");

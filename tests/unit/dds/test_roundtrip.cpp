@@ -71,6 +71,7 @@ TEST_CASE("every field of every sample type round-trips", "[dds][roundtrip]") {
   health.quality = EstimateQuality::kGood;
   health.modbus_connected = true;
   health.modbus_polls_ok = 5;
+  health.modbus_polls_exception = 7;
   health.modbus_polls_failed = 6;
   health.modbus_reconnects = 8;
   health.modbus_last_error = long_error;
@@ -134,6 +135,7 @@ TEST_CASE("every field of every sample type round-trips", "[dds][roundtrip]") {
   CHECK(h.quality == EstimateQuality::kGood);
   CHECK(h.modbus_connected);
   CHECK(h.modbus_polls_ok == 5);
+  CHECK(h.modbus_polls_exception == 7);
   CHECK(h.modbus_polls_failed == 6);
   CHECK(h.modbus_reconnects == 8);
   // Free text is cut visibly, never silently.

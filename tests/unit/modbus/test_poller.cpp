@@ -224,8 +224,9 @@ TEST_CASE("poller: an illegal address marks that request DEVICE_EXCEPTION withou
            rig.quality_is(1, PointQuality::kDeviceException);
   }));
   CHECK(rig.sample(1).exception_code == MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS);
-  REQUIRE(eventually([&] { return rig.status().polls_ok >= 3; }));
+  REQUIRE(eventually([&] { return rig.status().polls_exception >= 3; }));
   const DeviceStatus st = rig.status();
+  CHECK(st.polls_ok == 0);  // one point failed in every poll
   CHECK(st.exceptions >= 3);
   CHECK(st.transport_errors == 0);
   CHECK(st.reconnects == 0);
@@ -336,12 +337,43 @@ TEST_CASE("poller: busy (0x06) is retried a bounded number of times") {
     rig.start();
     REQUIRE(eventually([&] { return rig.quality_is(0, PointQuality::kDeviceException); }));
     CHECK(rig.sample(0).exception_code == MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY);
-    REQUIRE(eventually([&] { return rig.status().polls_ok >= 2; }));
+    REQUIRE(eventually([&] { return rig.status().polls_exception >= 2; }));
     const DeviceStatus st = rig.status();
+    CHECK(st.polls_ok == 0);
     CHECK(st.busy_retries == Poller::kBusyRetries * st.requests_failed);
     CHECK(st.transport_errors == 0);
     CHECK(rig.server.accepted_connections() == 1);
   }
+}
+
+TEST_CASE("poller: a poll answered with exceptions counts as an exception poll, never as ok") {
+  // Issue 17: a device answering every request busy (0x06) raised polls_ok, so the health topic
+  // showed the polls "ok" while every point was DEVICE_EXCEPTION.
+  Rig rig({test::holding("a", 0), test::input("b", 0)});
+  rig.set(0, 4);
+  rig.set(1, 5);
+  ServerFaults faults;
+  faults.forced_exception = MODBUS_EXCEPTION_SLAVE_OR_SERVER_BUSY;
+  rig.server.set_faults(faults);
+  rig.start();
+  REQUIRE(eventually([&] { return rig.status().polls_exception >= 3; }));
+  DeviceStatus st = rig.status();
+  CHECK(st.polls_ok == 0);
+  CHECK(st.polls_failed == 0);
+  CHECK(st.last_poll_ok_ns == 0);
+  CHECK(rig.all(PointQuality::kDeviceException));
+  // Both requests, each sent once and retried kBusyRetries times, in every poll.
+  CHECK(st.exceptions >= st.polls_exception * 2 * (Poller::kBusyRetries + 1));
+
+  rig.server.set_faults({});  // the device answers again: ok polls, no more exception polls
+  REQUIRE(eventually([&] { return rig.status().polls_ok >= 1; }));
+  const std::uint64_t exception_polls = rig.status().polls_exception;
+  REQUIRE(eventually([&] { return rig.status().polls_ok >= 3; }));
+  st = rig.status();
+  CHECK(st.polls_exception == exception_polls);
+  CHECK(st.polls_failed == 0);
+  CHECK(st.last_poll_ok_ns > 0);
+  CHECK(rig.all(PointQuality::kGood));
 }
 
 TEST_CASE("poller: gateway exception 0x0B marks every point, keeps the connection") {
@@ -355,6 +387,7 @@ TEST_CASE("poller: gateway exception 0x0B marks every point, keeps the connectio
   REQUIRE(eventually([&] { return rig.status().polls_failed >= 2; }));
   const DeviceStatus st = rig.status();
   CHECK(st.polls_ok == 0);
+  CHECK(st.polls_exception == 0);  // a gateway failure fails the poll
   CHECK(st.transport_errors == 0);
   CHECK(st.connected);
   CHECK(rig.server.accepted_connections() == 1);

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <thread>
+#include <vector>
 
 #include "daemon/runtime/clock.hpp"
 #include "daemon/runtime/notify.hpp"
@@ -34,6 +35,17 @@ SupervisorOptions quiet_options() {
   o.overrun_limit = 2;
   return o;
 }
+
+// A supervisor with quiet_options() whose ping changes are recorded in `changes`.
+struct PingRecorder {
+  NotifyEnv env;
+  const SystemdNotifier notifier;
+  std::vector<PingChange> changes;
+  CycleSupervisor sup;
+  explicit PingRecorder(std::size_t units)
+      : sup(units, notifier, quiet_options(), {},
+            [this](const PingChange& c) { changes.push_back(c); }) {}
+};
 
 }  // namespace
 
@@ -81,6 +93,56 @@ TEST_CASE("consecutive overruns withhold the pings until a cycle is on time", "[
   CHECK(sup.pings_withheld());
   CHECK_FALSE(sup.cycle_finished(0, ++t, true));
   CHECK(sup.cycle_finished(0, ++t, false));  // on time again
+  CHECK_FALSE(sup.pings_withheld());
+}
+
+TEST_CASE("the pings stopping and resuming are reported once each, with the cause",
+          "[supervisor]") {
+  // Issue 17: when overruns withheld the pings, nothing was logged. The daemon logs these reports.
+  PingRecorder r(1);
+  auto& sup = r.sup;
+  const auto& changes = r.changes;
+  const std::int64_t t0 = monotonic_ns();
+  CHECK(sup.cycle_finished(0, t0, true));
+  CHECK(changes.empty());  // one overrun: still pinging
+  CHECK_FALSE(sup.cycle_finished(0, t0 + 100, true));
+  REQUIRE(changes.size() == 1);  // the limit (2) reached: stopped
+  CHECK(changes[0].stopped);
+  CHECK(changes[0].unit == 0);
+  CHECK(changes[0].consecutive_overruns == 2);
+  for (int i = 2; i < 10; ++i)
+    CHECK_FALSE(sup.cycle_finished(0, t0 + 100 * i, true));
+  CHECK(changes.size() == 1);  // still stopped: not reported again
+  CHECK(sup.cycle_finished(0, t0 + 1000, false));
+  REQUIRE(changes.size() == 2);  // on time again: resumed
+  CHECK_FALSE(changes[1].stopped);
+  CHECK(changes[1].consecutive_overruns == 10);
+  CHECK(changes[1].withheld_ns == 900);
+  CHECK(sup.cycle_finished(0, t0 + 1100, false));
+  CHECK(sup.cycle_finished(0, t0 + 1200, true));
+  CHECK(changes.size() == 2);
+}
+
+TEST_CASE("with several units the pings resume only when no unit is over the limit",
+          "[supervisor]") {
+  PingRecorder r(2);
+  auto& sup = r.sup;
+  const auto& changes = r.changes;
+  std::int64_t t = monotonic_ns();
+  for (int i = 0; i < 2; ++i) {
+    sup.cycle_finished(0, ++t, true);
+    sup.cycle_finished(1, ++t, true);
+  }
+  REQUIRE(changes.size() == 1);  // unit 0 reached the limit first; unit 1 adds no report
+  CHECK(changes[0].stopped);
+  CHECK(changes[0].unit == 0);
+  CHECK_FALSE(sup.cycle_finished(0, ++t, false));  // unit 1 still over the limit
+  CHECK(changes.size() == 1);
+  CHECK(sup.pings_withheld());
+  CHECK(sup.cycle_finished(1, ++t, false));
+  REQUIRE(changes.size() == 2);
+  CHECK_FALSE(changes[1].stopped);
+  CHECK(changes[1].unit == 1);
   CHECK_FALSE(sup.pings_withheld());
 }
 
