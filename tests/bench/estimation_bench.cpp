@@ -3,12 +3,13 @@
 //   estimation_bench [--short] [--hours H] [--period S] [--truth nominal|mismatched|bias|all]
 //                    [--filters ekf,cekf,enkf] [--members N] [--threads T]
 //                    [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1]
-//                    [--noise-factor F]
+//                    [--noise-factor F] [--repr OUTPUT=SIGMA]
 //                    [--commission H] [--csv FILE] [--svg FILE]
 // --set, --q, --consider change the filters' model parameters, random walks and consider flags
-// from the design the daemon runs; --noise-factor sets the factor on the R the filters are told
-// (default 2, heat_pump_scenario.hpp says why); --commission H: the filters know the charge for
-// the first H hours (default 0: never).
+// from the design the daemon runs; --noise-factor sets the factor on the sensor noise the filters
+// are told (default 1) and --repr a point's representativeness error in quadrature (default
+// 0.25 K on the four wall sensors; heat_pump_scenario.hpp says why); --commission H: the
+// filters know the charge for the first H hours (default 0: never).
 //
 // Truths (heat_pump_scenario.hpp): the converged heat pump with closures the filters' model does
 // not share, nominal; the same with parameters off as units of one model differ (UA -20/+20 %,
@@ -93,7 +94,10 @@ bool parse(int argc, char** argv, Args& a) {
         a.truths = {bench::TruthKind::kMismatched};
       else if (t == "bias")
         a.truths = {bench::TruthKind::kSensorBias};
-      else if (t != "all")
+      else if (t == "all")  // after --short too, which takes the nominal truth alone
+        a.truths = {bench::TruthKind::kNominal, bench::TruthKind::kMismatched,
+                    bench::TruthKind::kSensorBias};
+      else
         return false;
     } else if (s == "--set" || s == "--q" || s == "--consider" || s == "--truth-set") {
       const std::string kv = next();
@@ -278,7 +282,7 @@ int main(int argc, char** argv) {
         "usage: estimation_bench [--short] [--hours H] [--period S] "
         "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
         "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
-        "[--noise-factor F] [--commission H] [--csv FILE] [--svg FILE]\n");
+        "[--noise-factor F] [--repr OUTPUT=SIGMA] [--commission H] [--csv FILE] [--svg FILE]\n");
     return 2;
   }
   std::printf(
