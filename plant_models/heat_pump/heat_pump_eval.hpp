@@ -400,10 +400,24 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
 // its inlet enthalpy moves at e_in + f_in pdot (the upstream cell's). A coil cell holds the mass
 // m(p, h_in, h, T_air) and the enthalpy H(p, h_in, h, T_air) of its profile; with the mass
 // balance, the energy balance dH/dt - V dp/dt = inflow h_in - outflow h + Q becomes
-//   C_h dh/dt = (a + b pdot)(h_in - h) + Q + (V - C_p) pdot - C_in dh_in/dt - C_air dT_air/dt
+//   C_h dh/dt = (a + b pdot)(h_in - h) + Q + X + (V - C_p) pdot - C_in dh_in/dt - C_air dT_air/dt
 // with the capacities C_x = dH/dx - h dm/dx, so dh/dt = e + f pdot; and the outflow, inflow -
 // dm/dt, is affine in pdot again. A line cell (uniform state) is the special case H = m h. The
 // last outflow equals the downstream flow, which fixes pdot.
+//
+// X, back-mixing where the flow reverses. The balance above carries the upstream element's
+// enthalpy across each face, right while the refrigerant flows forward. Where a face's flow F
+// turns backward (the unit stopped: the valve shut, cells evaporating and condensing at rest,
+// 1-3 g/s either way) it would carry the enthalpy of the element the flow leaves towards: the
+// cells then pull away from their neighbours (anti-diffusion), the profile breaks into a
+// checkerboard of liquid and vapour cells and the integrator stalls (the filter's predictions
+// failed 30 min into the night stop). So each interior face also exchanges a mass w =
+// softplus(-F) both ways, X_j = sum over its faces of w (h_neighbour - h_j): with w = -F the
+// face carries the downstream element's enthalpy, upwind in the flow's direction. Equal masses
+// both ways and opposite energies: mass and energy stay exactly conserved, the heat flows
+// untouched. w is taken from a first march without X (so it stays a smooth function of the
+// state); in operation every face flows forward by far more than the width, w is exactly 0 and
+// the second march is skipped.
 namespace hp_detail {
 
 template <class S>
@@ -411,15 +425,51 @@ struct Affine {
   S a{}, b{};  // value a + b pdot
 };
 
-// A line cell: returns dh/dt = e + f pdot and updates the flow to the outflow.
+// The smoothing width of the back-mixing flow [kg/s]: 0.1 g/s, against 20-40 g/s in operation.
+inline constexpr double kBackMixingWidth = 1e-4;
+
+// A line cell: returns dh/dt = e + f pdot and updates the flow to the outflow; `mix` is X [W].
 template <class S>
 Affine<S> line_cell(Affine<S>& flow, const S& h_up, const S& h, const S& rho, const S& rho_p,
-                    const S& rho_h, double volume) {
+                    const S& rho_h, double volume, const S& mix) {
   const S vrho = volume * rho;
-  Affine<S> hdot{(flow.a * (h_up - h)) / vrho, (flow.b * (h_up - h) + volume) / vrho};
+  Affine<S> hdot{(flow.a * (h_up - h) + mix) / vrho, (flow.b * (h_up - h) + volume) / vrho};
   flow.a = flow.a - volume * rho_h * hdot.a;
   flow.b = flow.b - volume * rho_p - volume * rho_h * hdot.b;
   return hdot;
+}
+
+// The enthalpies of a side's elements [J/kg]: `first`, the cells' (x in kJ/kg), `last`.
+template <class S>
+std::array<S, HeatPumpR32::kMaxCells + 2> element_enthalpies(const S& first, std::span<const S> x,
+                                                             const hp::Slice& cells,
+                                                             const S& last) {
+  std::array<S, HeatPumpR32::kMaxCells + 2> h{};
+  h[0] = first;
+  for (std::size_t k = 0; k < cells.size; ++k)
+    h[k + 1] = 1e3 * x[cells[k]];
+  h[cells.size + 1] = last;
+  return h;
+}
+
+// Adds the back-mixing X of the faces first..last-1 (face j: element j's outflow into element
+// j + 1, affine in pdot) to mix; returns whether any face mixes.
+template <class S, std::size_t M>
+bool back_mixing(const std::array<S, M>& h, const std::array<Affine<S>, M>& outflow, const S& pdot,
+                 std::size_t first, std::size_t last, std::array<S, M>& mix) {
+  using std::exp;
+  using std::log1p;
+  bool any = false;
+  for (std::size_t j = first; j < last; ++j) {
+    const S z = -(outflow[j].a + outflow[j].b * pdot) / kBackMixingWidth;
+    if (value_of(z) < -30.0) continue;  // w < 1e-17 kg/s
+    const S w = value_of(z) > 30.0 ? S(z * kBackMixingWidth) : S(kBackMixingWidth * log1p(exp(z)));
+    const S exchange = w * (h[j + 1] - h[j]);
+    mix[j] = mix[j] + exchange;
+    mix[j + 1] = mix[j + 1] - exchange;
+    any = true;
+  }
+  return any;
 }
 
 }  // namespace hp_detail
@@ -429,26 +479,32 @@ void HeatPumpR32::march_condenser(Eval<S>& e, const std::span<const S> x) const 
   using hp_detail::Affine;
   const std::size_t N = n_;
   const double v_cell = p_.cond.volume / static_cast<double>(N);
-  Affine<S> flow{e.comp.mdot, S(0.0)};
-  std::array<Affine<S>, kMaxCells + 2> hdot{};
-  hdot[0] = hp_detail::line_cell(flow, e.comp.h_dis, e.dl.h, e.dl.rho, e.dl.rho_p, e.dl.rho_h,
-                                 p_.discharge_line_volume);
-  S h_in = e.dl.h;
-  for (std::size_t k = 0; k < N; ++k) {
-    const CoilCell<S>& c = e.cond[k];
-    const S h = 1e3 * x[L_.h_cond[k]];
-    const Affine<S>& in = hdot[k];
-    Affine<S>& out = hdot[k + 1];
-    // The outdoor air temperature is an input, constant over a step.
-    out.a = (flow.a * (h_in - h) + e.q_cond[k] - c.cap_in * in.a) / c.cap_out;
-    out.b = (flow.b * (h_in - h) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
-    flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a;
-    flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
-    h_in = h;
+  // Elements: 0 the discharge line, 1..N the cells, N + 1 the liquid line.
+  const auto h = hp_detail::element_enthalpies(e.dl.h, x, L_.h_cond, e.ll.h);
+  std::array<S, kMaxCells + 2> mix{};
+  std::array<Affine<S>, kMaxCells + 2> hdot{}, outflow{};
+  for (int pass = 0; pass < 2; ++pass) {
+    Affine<S> flow{e.comp.mdot, S(0.0)};
+    hdot[0] = hp_detail::line_cell(flow, e.comp.h_dis, h[0], e.dl.rho, e.dl.rho_p, e.dl.rho_h,
+                                   p_.discharge_line_volume, mix[0]);
+    outflow[0] = flow;
+    for (std::size_t k = 0; k < N; ++k) {
+      const CoilCell<S>& c = e.cond[k];
+      const Affine<S>& in = hdot[k];
+      Affine<S>& out = hdot[k + 1];
+      // The outdoor air temperature is an input, constant over a step.
+      out.a = (flow.a * (h[k] - h[k + 1]) + e.q_cond[k] + mix[k + 1] - c.cap_in * in.a) / c.cap_out;
+      out.b = (flow.b * (h[k] - h[k + 1]) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
+      flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a;
+      flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
+      outflow[k + 1] = flow;
+    }
+    hdot[N + 1] = hp_detail::line_cell(flow, h[N], h[N + 1], e.ll.rho, e.ll.rho_p, e.ll.rho_h,
+                                       p_.liquid_line_volume, mix[N + 1]);
+    e.pdot_cond = (e.mdot_valve - flow.a) / flow.b;
+    // Faces 0..N: from the discharge line to the liquid line (the valve is not a face).
+    if (pass == 1 || !hp_detail::back_mixing(h, outflow, e.pdot_cond, 0, N + 1, mix)) break;
   }
-  hdot[N + 1] = hp_detail::line_cell(flow, h_in, e.ll.h, e.ll.rho, e.ll.rho_p, e.ll.rho_h,
-                                     p_.liquid_line_volume);
-  e.pdot_cond = (e.mdot_valve - flow.a) / flow.b;
   e.hdot_dl = hdot[0].a + hdot[0].b * e.pdot_cond;
   for (std::size_t k = 0; k < N; ++k)
     e.hdot_cond[k] = hdot[k + 1].a + hdot[k + 1].b * e.pdot_cond;
@@ -460,25 +516,32 @@ void HeatPumpR32::march_evaporator(Eval<S>& e, const std::span<const S> x) const
   using hp_detail::Affine;
   const std::size_t N = n_;
   const double v_cell = p_.evap.volume / static_cast<double>(N);
-  Affine<S> flow{e.mdot_valve, S(0.0)};
-  std::array<Affine<S>, kMaxCells + 2> hdot{};
-  hdot[0] = Affine<S>{e.hdot_ll, S(0.0)};  // the valve outlet: the liquid line's enthalpy
-  S h_in = e.ll.h;
-  for (std::size_t k = 0; k < N; ++k) {
-    const CoilCell<S>& c = e.evap[k];
-    const S h = 1e3 * x[L_.h_evap[k]];
-    const Affine<S>& in = hdot[k];
-    Affine<S>& out = hdot[k + 1];
-    out.a =
-        (flow.a * (h_in - h) + e.q_evap[k] - c.cap_in * in.a - c.cap_air * e.t_air_dot) / c.cap_out;
-    out.b = (flow.b * (h_in - h) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
-    flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a - c.mass_air * e.t_air_dot;
-    flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
-    h_in = h;
+  // Elements: 0 the valve outlet (the liquid line's enthalpy), 1..N the cells, N + 1 the
+  // suction line.
+  const auto h = hp_detail::element_enthalpies(e.ll.h, x, L_.h_evap, e.sl.h);
+  std::array<S, kMaxCells + 2> mix{};
+  std::array<Affine<S>, kMaxCells + 2> hdot{}, outflow{};
+  for (int pass = 0; pass < 2; ++pass) {
+    Affine<S> flow{e.mdot_valve, S(0.0)};
+    hdot[0] = Affine<S>{e.hdot_ll, S(0.0)};
+    for (std::size_t k = 0; k < N; ++k) {
+      const CoilCell<S>& c = e.evap[k];
+      const Affine<S>& in = hdot[k];
+      Affine<S>& out = hdot[k + 1];
+      out.a = (flow.a * (h[k] - h[k + 1]) + e.q_evap[k] + mix[k + 1] - c.cap_in * in.a -
+               c.cap_air * e.t_air_dot) /
+              c.cap_out;
+      out.b = (flow.b * (h[k] - h[k + 1]) + v_cell - c.cap_p - c.cap_in * in.b) / c.cap_out;
+      flow.a = flow.a - c.mass_in * in.a - c.mass_out * out.a - c.mass_air * e.t_air_dot;
+      flow.b = flow.b - c.mass_p - c.mass_in * in.b - c.mass_out * out.b;
+      outflow[k + 1] = flow;
+    }
+    hdot[N + 1] = hp_detail::line_cell(flow, h[N], h[N + 1], e.sl.rho, e.sl.rho_p, e.sl.rho_h,
+                                       p_.suction_line_volume, mix[N + 1]);
+    e.pdot_evap = (S(e.comp.mdot + e.leak) - flow.a) / flow.b;
+    // Faces 1..N: from the first cell to the suction line (the valve is not a face).
+    if (pass == 1 || !hp_detail::back_mixing(h, outflow, e.pdot_evap, 1, N + 1, mix)) break;
   }
-  hdot[N + 1] = hp_detail::line_cell(flow, h_in, e.sl.h, e.sl.rho, e.sl.rho_p, e.sl.rho_h,
-                                     p_.suction_line_volume);
-  e.pdot_evap = (S(e.comp.mdot + e.leak) - flow.a) / flow.b;
   for (std::size_t k = 0; k < N; ++k)
     e.hdot_evap[k] = hdot[k + 1].a + hdot[k + 1].b * e.pdot_evap;
   e.hdot_sl = hdot[N + 1].a + hdot[N + 1].b * e.pdot_evap;
