@@ -5,6 +5,10 @@
 //   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--days-a D]
 //              [--off-from H] [--no-augment NAME]...
 //
+// --trace-dir DIR writes DIR/leak_bench_X.csv per scenario (a line per 5 simulated minutes) and
+// DIR/leak_bench_X_failures.txt: the filter's state and inputs before the first failed prediction
+// of each run of failures, to replay it alone.
+//
 // Long form (the acceptance figures):
 //   (a) seven days of normal operation: daily outdoor cycle, day/night setpoints, internal
 //       gains re-drawn every 3 h, the unit off 01:00-05:00 and cycling 22:00-23:00;
@@ -136,17 +140,23 @@ int main(int argc, char** argv) {
 
   std::vector<bench::LeakRunResult> results;
   for (auto& row : rows) {
-    std::FILE* trace = nullptr;
+    std::FILE *trace = nullptr, *failures = nullptr;
     if (!trace_dir.empty()) {
-      const std::string path = trace_dir + "/leak_bench_" + row.id + ".csv";
-      trace = std::fopen(path.c_str(), "w");
+      const std::string path = trace_dir + "/leak_bench_" + row.id;
+      trace = std::fopen((path + ".csv").c_str(), "w");
+      failures = std::fopen((path + "_failures.txt").c_str(), "w");
       row.options.trace = trace;
+      row.options.failure_dump = failures;
     }
     results.push_back(bench::run_leak_scenario(row.options));
     if (trace != nullptr) std::fclose(trace);
+    if (failures != nullptr) std::fclose(failures);
     const auto& r = results.back();
-    std::printf("  %s: %.1f simulated h in %.0f s (%.1f ms per filter step, median)\n",
-                row.name.c_str(), r.simulated_s / 3600.0, r.wall_s, r.step_ms_median);
+    std::printf(
+        "  %s: %.1f simulated h in %.0f s (%.1f ms per filter step, median); %ld failed filter "
+        "steps, %ld restarts from the measured conditions\n",
+        row.name.c_str(), r.simulated_s / 3600.0, r.wall_s, r.step_ms_median, r.filter_failures,
+        r.restarts);
     std::fflush(stdout);
   }
 

@@ -82,15 +82,19 @@ struct LeakRunOptions {
   double score_after_s = 7200.0;  // charge and heat-flow errors count from here (convergence)
   std::FILE* trace = nullptr;     // a CSV line per trace_every_s when set
   double trace_every_s = 300.0;
+  // When set, the first failed prediction of each run of failures: the time, CVODES's message
+  // and the filter's state and inputs before it (one line each), to replay it alone.
+  std::FILE* failure_dump = nullptr;
 };
 
 struct LeakRunResult {
   double simulated_s = 0.0, wall_s = 0.0;
   double step_ms_median = 0.0;
   long steps = 0, filter_failures = 0;
-  bool leak_raised = false;               // LEAK after the leak started (or at all, without a leak)
-  double leak_delay_s = -1.0;             // from the leak's start to LEAK
-  double suspect_delay_s = -1.0;          // from the leak's start to SUSPECT or LEAK
+  long restarts = 0;              // filter restarts from the measured conditions, as the daemon's
+  bool leak_raised = false;       // LEAK after the leak started (or at all, without a leak)
+  double leak_delay_s = -1.0;     // from the leak's start to LEAK
+  double suspect_delay_s = -1.0;  // from the leak's start to SUSPECT or LEAK
   int false_suspect = 0, false_leak = 0;  // alarms raised while the truth did not leak
   // Charge estimate against truth after score_after_s [kg]: mean |e| and largest |e|,
   // and the charge the filter lost against the truth's loss since the leak started.
@@ -142,6 +146,18 @@ inline LeakRunOptions short_form(LeakRunOptions o) {
   return o;
 }
 
+inline void dump_failure(std::FILE* f, double t, const char* error, const Eigen::VectorXd& x,
+                         const std::vector<double>& u) {
+  std::fprintf(f, "t %.1f: %s\nx", t, error);
+  for (const double v : x)
+    std::fprintf(f, " %.17g", v);
+  std::fprintf(f, "\nu");
+  for (const double v : u)
+    std::fprintf(f, " %.17g", v);
+  std::fprintf(f, "\n");
+  std::fflush(f);
+}
+
 inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   using namespace plant::hp;
   using Clock = std::chrono::steady_clock;
@@ -159,6 +175,10 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   est::Ekf ekf(*model, q, kMeasured.size(), eo);
   // The parameters held after the start, as the daemon holds them (estimator.parameter_hold_s).
   const est::StatePhases phases(layout, {}, config::EstimatorConfig{}.parameter_hold_s, 0.0);
+  constexpr int kRestartAfterFailedPredictions = 6;
+  int failed_predictions = 0;
+  double phases_from = 0.0;  // model time of the last (re)start
+  Eigen::VectorXd x_before;  // the state before the predict (failure_dump)
   est::LeakDetector detector(o.detector);
   const plant::ModelLayout& truth_layout = truth.model().layout();
   const std::size_t truth_charge = *truth_layout.state("charge");
@@ -211,12 +231,21 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
 
     bool ok = true;
     const auto t0 = Clock::now();
-    if (k == 0) {
+    if (k == 0 || failed_predictions >= kRestartAfterFailedPredictions) {
+      // A start, or a restart from the measured conditions after predictions kept failing, as
+      // the daemon does (UnitPipeline::kRestartAfterFailedPredictions), parameters held anew.
+      if (k > 0) ++r.restarts;
       start_filter(*model, ekf, u, truth.y_measured());
-      phases.apply(ekf, 0.0);
+      phases_from = t;
+      failed_predictions = 0;
+      phases.apply(ekf, 0.0, u);
     } else {
-      phases.apply(ekf, t, u);
+      phases.apply(ekf, t - phases_from, u);
+      if (o.failure_dump != nullptr) x_before = ekf.state();
       ok = ekf.predict(u, o.period_s) == est::StepStatus::kOk;
+      if (!ok && failed_predictions == 0 && o.failure_dump != nullptr)
+        dump_failure(o.failure_dump, t, ekf.integrator().last_error(), x_before, u);
+      failed_predictions = ok ? 0 : failed_predictions + 1;
     }
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
     ok = ekf.output_estimates(u, y, sigma, own_sigma) == plant::kModelOk && ok;

@@ -8,7 +8,8 @@
 //   - a finite-difference F: n + 1 plain integrations, forward differences with steps of
 //     sqrt(rel_tol) times each state's scale (the way a script or FMU path gets F);
 //   - one model Jacobian and one right-hand side at the prior;
-// and prints medians, p99 and ratios. It also measures F's error against a tight reference
+// and prints medians, p99 and ratios (--short times the finite-difference F, the costliest path,
+// on a quarter of the periods). It also measures F's error against a tight reference
 // (CVODES's Newton corrector with sensitivity error control, rel_tol 1e-10, absolute tolerances
 // 1e-4 of the model's) on transients (the period of each speed step and each valve step, the
 // period after the update that moved the state most) and at steady state (the filter model
@@ -238,7 +239,8 @@ struct Race {
   }
 
   // Times every path from x0 (and the model's Jacobian and right-hand side there).
-  void time(std::span<const double> x0, std::span<const double> u) {
+  // The finite-difference F (n + 1 integrations, the costliest path by far) only when with_fd.
+  void time(std::span<const double> x0, std::span<const double> u, bool with_fd) {
     run(plain, x0, u, F_fd, &t_plain);  // F unused: the plain integrator has no sensitivities
     run(direct, x0, u, F_direct, &t_direct);
     steps.push_back(static_cast<double>(direct.last_stats().steps));
@@ -247,17 +249,19 @@ struct Race {
     jacs_newton.push_back(static_cast<double>(model_jacobians(newton.last_stats())));
     // Finite differences: the base run and one run per perturbed state.
     const auto t0 = Clock::now();
-    std::copy(x0.begin(), x0.end(), base.begin());
-    if (!plain.step(base, u, period, {}).ok()) ++failures, ++failures_fd;
-    for (std::size_t j = 0; j < n; ++j) {
-      std::copy(x0.begin(), x0.end(), xp.begin());
-      const double h = fd_step[j] * std::max(std::abs(x0[j]), scale[j]);
-      xp[j] += h;
-      if (!plain.step(xp, u, period, {}).ok()) ++failures, ++failures_fd;
-      for (std::size_t i = 0; i < n; ++i)
-        F_fd[j * n + i] = (xp[i] - base[i]) / h;
+    if (with_fd) {
+      std::copy(x0.begin(), x0.end(), base.begin());
+      if (!plain.step(base, u, period, {}).ok()) ++failures, ++failures_fd;
+      for (std::size_t j = 0; j < n; ++j) {
+        std::copy(x0.begin(), x0.end(), xp.begin());
+        const double h = fd_step[j] * std::max(std::abs(x0[j]), scale[j]);
+        xp[j] += h;
+        if (!plain.step(xp, u, period, {}).ok()) ++failures, ++failures_fd;
+        for (std::size_t i = 0; i < n; ++i)
+          F_fd[j * n + i] = (xp[i] - base[i]) / h;
+      }
+      t_fd.push_back(ms_since(t0));
     }
-    t_fd.push_back(ms_since(t0));
     // Each evaluation at a state of its own (the first state nudged by 1e-12 relative), as in an
     // integration: the model's caches (pressure solve, cell jets) hold only the state before.
     std::vector<double> f(n), J(n * n), xn(x0.begin(), x0.end());
@@ -336,12 +340,15 @@ void print_case(const Case& c, bool has_choice) {
 int main(int argc, char** argv) {
   double hours = 3.0, period = 5.0;
   int every = 12;
+  int fd_every = 1;  // time the finite-difference F on every fd_every'th period (and where F's
+                     // errors are measured): --short samples a quarter of the periods
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
     if (a == "--short") {
       hours = 0.6;  // includes the first speed step (20 min) and valve step (30 min)
       every = 24;
+      fd_every = 4;
     } else if (a == "--hours") {
       hours = std::atof(next().c_str());
     } else if (a == "--period") {
@@ -402,7 +409,11 @@ int main(int argc, char** argv) {
     }
     std::copy(ekf.state().data(), ekf.state().data() + n, xprior.begin());
     P_prior = ekf.covariance();
-    race.time(xprior, u);
+    const bool speed_step = static_cast<int>(t / 1200.0) != static_cast<int>((t - period) / 1200.0);
+    const bool valve_step = static_cast<int>(t / 1800.0) != static_cast<int>((t - period) / 1800.0);
+    const bool after_big_move = last_move > largest_move;
+    const bool check_f = speed_step || valve_step || after_big_move || k % every == 0;
+    race.time(xprior, u, check_f || k % fd_every == 0);
     const auto t0 = Clock::now();
     ekf.predict(u, period);
     const double tp = ms_since(t0);
@@ -414,10 +425,7 @@ int main(int argc, char** argv) {
     t_update.push_back(tu);
     t_step.push_back(tp + tu);
 
-    const bool speed_step = static_cast<int>(t / 1200.0) != static_cast<int>((t - period) / 1200.0);
-    const bool valve_step = static_cast<int>(t / 1800.0) != static_cast<int>((t - period) / 1800.0);
-    const bool after_big_move = last_move > largest_move;
-    if (speed_step || valve_step || after_big_move || k % every == 0) {
+    if (check_f) {
       Case c{"", {}, {}, {}, {}};
       if (errors(race, xprior, u, P_prior, qc, c)) {
         ++checked;
@@ -460,7 +468,7 @@ int main(int argc, char** argv) {
     model->initial_guess(u0, truth.y_measured(), xs);
     plant::Integrator settle(*model, plant::IntegratorOptions{});
     settle.step(xs, u0, 3600.0, {});
-    race.time(xs, u0);
+    race.time(xs, u0, true);
     race.drop_last_timings(1);  // the loop's periods are the timing sample
     Case c{"steady state (settled 1 h)", {}, {}, {}, {}};
     if (errors(race, xs, u0, ekf.covariance(), qc, c)) cases.push_back(c);
