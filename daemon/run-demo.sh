@@ -33,7 +33,10 @@ trap 'exit 0' INT TERM
 "$build/tests/simulator/hvac-twin-sim" "${sim_args[@]}" >"$logs/sim.log" 2>&1 &
 pids+=($!)
 sleep 0.5
-"$build/daemon/runtime/hvac-twind" --config "$config" 2> >(sed -u 's/^/[hvac-twind] /' >&2) &
+# Ctrl-C reaches every process of the demo; the daemon's log filter ignores it and ends when the
+# daemon, shutting down cleanly (its last checkpoint saved), closes its stderr.
+"$build/daemon/runtime/hvac-twind" --config "$config" \
+  2> >(trap '' INT TERM; exec sed -u 's/^/[hvac-twind] /' >&2) &
 pids+=($!)
 
 echo "hvac-twin demo: $(basename "$config"), simulated plant on Modbus 127.0.0.1, DDS domain 0 on lo."

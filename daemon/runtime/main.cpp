@@ -2,6 +2,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstddef>
 #include <cstdio>
 #include <cstdlib>
@@ -80,6 +81,10 @@ int main(int argc, char** argv) {
   // this mask; the main thread alone takes the signals, with sigwait.
   const sigset_t signals = stop_signals();
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // A log pipe whose reader died (the demo's `sed` on Ctrl-C, a journal restarting) must not kill
+  // the daemon by SIGPIPE in the middle of its shut-down (a checkpoint being written, exit 0):
+  // writes to it fail with EPIPE instead, which the loggers ignore.
+  std::signal(SIGPIPE, SIG_IGN);
 
   std::string config_path = kDefaultConfig;
   std::string log_level;

@@ -2,7 +2,10 @@
 // JSON pointer and without READY=1; READY=1 after start-up and WATCHDOG=1 only from completed
 // cycles, at least every half WatchdogSec; a hung cycle stops the pings at once (well within one
 // WatchdogSec) and the daemon exits 70 after its hang timeout; repeated overruns stop the pings;
-// SIGTERM shuts down cleanly within one period, also while the configuration still loads.
+// SIGTERM shuts down cleanly within one period, also while the configuration still loads and
+// when the reader of its log is gone.
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
 
 #include <catch2/catch.hpp>
@@ -123,6 +126,34 @@ TEST_CASE("READY=1 after start-up, WATCHDOG=1 from completed cycles, clean SIGTE
   CHECK(took < 0.5);  // within one (wall) period
   const auto bye = systemd.receive(1s, "STOPPING=1");
   CHECK(std::find(bye.begin(), bye.end(), "STOPPING=1") != bye.end());
+}
+
+TEST_CASE("a daemon whose log reader is gone shuts down cleanly, not by SIGPIPE",
+          "[integration][cli]") {
+  // Issue 17: Ctrl-C on the demo ended its `sed`, which read the daemon's stderr, first; the
+  // daemon's shut-down log line then killed it by SIGPIPE (status 141) in the middle of its
+  // shut-down. Here its stderr is a FIFO whose only reader the test closes.
+  StackOptions o;
+  o.domain_id = 58;
+  o.time_scale = 60.0;
+  o.period_s = 30.0;  // 0.5 s wall
+  o.poll_period_s = 0.1;
+  Stack stack("sigpipe", o);
+  stack.start_sim();
+  const std::string fifo = stack.path("daemon.err");
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);  // not the daemon's
+  REQUIRE(reader >= 0);
+  NotifySocket systemd;
+  stack.start_daemon({}, {"NOTIFY_SOCKET=" + systemd.path()});
+  REQUIRE(!systemd.receive(10s, "READY=1").empty());
+  ::close(reader);
+  std::this_thread::sleep_for(1s);  // cycles on, their log lines (if any) into the broken pipe
+  stack.daemon().signal(SIGTERM);   // "SIGTERM received, shutting down" into the broken pipe
+  const auto rc = stack.daemon().wait(5s);
+  REQUIRE(rc.has_value());
+  CHECK(*rc == 0);
+  CHECK(!systemd.receive(1s, "STOPPING=1").empty());
 }
 
 TEST_CASE("SIGTERM while the configuration loads: exit 0 and a log line", "[integration][cli]") {
