@@ -8,7 +8,6 @@
 // it the charge (no reference learnt), or a topic that does not carry the statistics.
 #include <catch2/catch.hpp>
 #include <chrono>
-#include <regex>
 #include <string>
 
 #include "io/dds/participant.hpp"
@@ -111,11 +110,9 @@ TEST_CASE("a leaking unit raises LEAK on the leak topic, end to end", "[integrat
   // period ran in; this unit pulls down from 90 Hz through the whole run and may have left the
   // band before the references are complete, so the log is what is sure to carry them.)
   const std::string log = stack.daemon().err();
-  std::smatch m;
-  REQUIRE(std::regex_search(log, m,
-                            std::regex("learnt its reference charges: .* \\d+-\\d* Hz "
-                                       "(\\d+\\.\\d+) kg")));
-  const double logged_reference = std::stod(m[1].str());
+  const auto m = regex_find(log, R"(learnt its reference charges: .* \d+-\d* Hz (\d+\.\d+) kg)");
+  REQUIRE(m.has_value());
+  const double logged_reference = std::stod((*m)[1]);
   CHECK(logged_reference == Approx(0.5).margin(0.05));
   if (with_reference > 0) CHECK(reference_seen == Approx(logged_reference).margin(1e-4));
   CHECK(l.hold == dds::LeakHold::kNone);

@@ -44,6 +44,10 @@ TEST_CASE("estimated internal gains and mass temperature follow the simulated tr
   StackOptions o;
   o.domain_id = 51;
   o.seed = 7;
+  // Half the speed under the sanitizers: there the cycles are slow enough that the lag between
+  // the simulator's clock and the daemon's (below) put one settled gains error at 3.07 sigma
+  // in CI (the machine's two cores shared with other tests).
+  if (HVAC_TWIN_SANITIZED_BUILD) o.time_scale = 600.0;
   Stack stack("zone", o);
   const double hours = 15.0;
   const double wall_s = hours * 3600.0 / o.time_scale;
