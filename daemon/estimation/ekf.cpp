@@ -54,6 +54,9 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
     if (std::isfinite(width)) max_var_(i) = width * width;
   }
   consecutive_rejections_.assign(max_measurements, 0);
+  held_.assign(max_measurements, 0);
+  readmit_at_.assign(max_measurements, 0);
+  readmit_interval_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
   init_consider(model.layout());
   if (options_.constrained) build_constraints();
@@ -115,6 +118,7 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   P_initial_ = P_;
   lost_updates_ = 0;
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
 }
 
 bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major,
@@ -135,6 +139,7 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   counters_ = counters;
   lost_updates_ = 0;
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
   active_count_ = 0;
   return true;
 }
@@ -173,27 +178,36 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   // Test every measurement against the prior, as the published innovations are.
   std::size_t available = 0;
   const std::size_t rejected = gate(z, reports, count, available);
-  if (available >= 2 && 2 * rejected > available) {
-    if (++lost_updates_ >= options_.max_consecutive_rejections) {
-      // Lost: most points contradict the covariance for several updates. Start the covariance
-      // afresh (x kept) and test the same measurements again.
-      lost_updates_ = 0;
-      ++counters_.covariance_resets;
-      counters_.gate_rejections -= rejected;
-      for (std::size_t i = 0; i < count; ++i)
-        if (reports[i].rejected) --consecutive_rejections_[i];
-      P_ = P_initial_;
-      gate(z, reports, count, available);
-    }
-  } else {
+  lost_updates_ = available >= 2 && 2 * rejected > available ? lost_updates_ + 1 : 0;
+  const bool lost = lost_updates_ >= options_.max_consecutive_rejections;
+  const bool readmit = readmission_due(z, reports, count);
+  const bool reset = readmit || lost;
+  if (reset) {
+    // Lost (most points contradict the covariance for several updates), or a point held out at
+    // an earlier reset is plausible against the initial covariance (re-admission: see ekf.hpp).
+    // Start the covariance afresh (x kept) and test the same measurements again; when lost, the
+    // points already faulty are held out of that test and tested against the others' posterior
+    // instead, so that a transmitter that went wrong does not get in through the wide
+    // covariance.
     lost_updates_ = 0;
+    ++counters_.covariance_resets;
+    counters_.gate_rejections -= rejected;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (reports[i].rejected) --consecutive_rejections_[i];
+      held_[i] = reports[i].faulty && !readmit ? consecutive_rejections_[i] : -1;
+    }
+    P_ = P_initial_;
+    gate(z, reports, count, available);
   }
   for (std::size_t i = 0; i < count; ++i) {
-    if (!reports[i].fused) continue;
+    if (!reports[i].fused || (reset && held_[i] >= 0)) continue;
+    readmit_at_[i] = 0;  // fused: disarmed; the back-off forgotten unless this is a reset
+    if (!reset) readmit_interval_[i] = 0;
     fuse(z[i].output, reports[i].innovation,
          std::max(z[i].variance, options_.min_measurement_variance));
     ++counters_.fused;
   }
+  if (reset) retest_held(z, reports, count);
   if (projection_) apply_constraints();
   return finish_step();
 }
@@ -229,6 +243,58 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
     rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
   }
   return rejected;
+}
+
+bool Ekf::readmission_due(std::span<const Measurement> z,
+                          std::span<const MeasurementReport> reports, std::size_t count) {
+  bool due = false;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (readmit_at_[i] == 0 || !reports[i].rejected || consecutive_rejections_[i] < readmit_at_[i])
+      continue;
+    readmit_interval_[i] = std::min(2 * readmit_interval_[i], kMaxReadmitInterval);  // back off
+    readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
+    const auto o = static_cast<Eigen::Index>(z[i].output);
+    ph_.noalias() = P_initial_ * H_.row(o).transpose();
+    const double s0 =
+        H_.row(o).dot(ph_) + std::max(z[i].variance, options_.min_measurement_variance);
+    if (reports[i].innovation * reports[i].innovation / s0 <= options_.nis_gate) due = true;
+  }
+  return due;
+}
+
+void Ekf::retest_held(std::span<const Measurement> z, std::span<MeasurementReport> reports,
+                      std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    MeasurementReport& rep = reports[i];
+    if (held_[i] < 0 || !rep.available) continue;
+    const auto o = static_cast<Eigen::Index>(z[i].output);
+    const double r = std::max(z[i].variance, options_.min_measurement_variance);
+    const double nu = rep.innovation - H_.row(o).dot(x_ - x_prior_);
+    ph_.noalias() = P_ * H_.row(o).transpose();
+    const double s = H_.row(o).dot(ph_) + r;
+    rep.test_ratio = nu * nu / s;  // what decides, replacing gate()'s against P_initial alone
+    const bool pass = rep.test_ratio <= options_.nis_gate;
+    if (pass != rep.fused) {  // gate() counted the other outcome
+      if (pass)
+        --counters_.gate_rejections;
+      else
+        ++counters_.gate_rejections;
+    }
+    rep.fused = pass;
+    rep.rejected = !pass;
+    consecutive_rejections_[i] = pass ? 0 : held_[i] + 1;
+    if (!pass && readmit_at_[i] == 0) {  // armed: tested again later (readmission_due)
+      readmit_interval_[i] =
+          std::max(readmit_interval_[i], 2 * options_.max_consecutive_rejections);
+      readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
+    }
+    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+    if (pass) {
+      readmit_at_[i] = 0;  // fused: disarmed (the back-off kept: this is a reset)
+      fuse(z[i].output, rep.innovation, r);
+      ++counters_.fused;
+    }
+  }
 }
 
 void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {

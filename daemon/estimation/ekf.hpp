@@ -11,7 +11,19 @@
 // and a numerical reset is counted. A filter that has lost track (most available measurements
 // gated out in max_consecutive_rejections updates in a row: its covariance claims a certainty
 // the data contradicts) gets its initial covariance back, keeping x, and re-tests the same
-// measurements; that is counted as a covariance reset.
+// measurements; that is counted as a covariance reset. The points already faulty are held out
+// of that re-test and tested against the posterior of the others (a transmitter gone wrong
+// would pass against the wide initial covariance alone and drag the estimate with it). A point so
+// held out and rejected is tested against the initial covariance 2 x max_consecutive_rejections
+// updates later; if it passes there, the estimate may have drifted while the point was out (its
+// own information is what kept it right: the heat pump's pressures after a fault on both, when
+// the wall temperatures alone, linearised far from the truth, rejected them for good), and a
+// reset that tests every point against the initial covariance lets it back in. Was the point
+// wrong after all, the filter is lost again a few updates later and resets holding it out; the
+// test backs off, its interval doubling, while the point stays wrong. A point
+// rejected alone with no reset is not re-admitted so: from one point a drift and a structural
+// mismatch of the model look the same, and a reset every few updates for a biased sensor would
+// throw away what the filter knows of the slow states.
 //
 // Pure library: no I/O, no clock (dt is passed in). Construction allocates; reset(), predict(),
 // update() and output_estimates() never allocate and never throw. One instance per thread.
@@ -101,6 +113,14 @@ class Ekf final : public Estimator {
   std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
                    std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
+  // Whether an armed point rejected readmit_at_ times in a row passes the gate against the
+  // initial covariance (a covariance reset is due); advances the back-off of every point tested.
+  bool readmission_due(std::span<const Measurement> z, std::span<const MeasurementReport> reports,
+                       std::size_t count);
+  // After a covariance reset: the held-out (faulty) points tested against the posterior of the
+  // others, and fused if they pass.
+  void retest_held(std::span<const Measurement> z, std::span<MeasurementReport> reports,
+                   std::size_t count);
   void build_constraints();
   void apply_constraints();
 
@@ -119,7 +139,14 @@ class Ekf final : public Estimator {
   Eigen::LLT<Eigen::MatrixXd> llt_;
   std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
   int lost_updates_ = 0;                     // consecutive updates with most points gated out
-  std::vector<double> x_buf_;                // contiguous scratch for the integrator
+  std::vector<int> held_;  // per slot, after a reset: its rejections in a row before, or -1
+  // Per slot, armed when a covariance reset held the point out and its re-test failed: the
+  // rejections in a row at which it is next tested against the initial covariance (0:
+  // disarmed), 2 x max_consecutive_rejections later, the interval doubling after each test (a
+  // transmitter that stays wrong costs a covariance reset ever more rarely); disarmed when fused.
+  std::vector<int> readmit_at_, readmit_interval_;
+  static constexpr int kMaxReadmitInterval = 1 << 20;
+  std::vector<double> x_buf_;  // contiguous scratch for the integrator
 
   // Constrained mode.
   std::unique_ptr<ConstraintSet> constraints_;

@@ -278,6 +278,39 @@ void UnitPipeline::start_from_measurements(double model_time_s) {
   phases_->apply(*filter_, 0.0);
 }
 
+void UnitPipeline::step_track(const est::TrackStep& s, std::uint32_t& flags) {
+  if (s.lost) flags |= dds::kFlagLostTrack;
+  if (s.episode_started)
+    log_->warn(
+        "unit {}: lost track: most measured points contradict the estimate ({} of {} gated out, "
+        "{} updates in a row); estimates DEGRADED (flag lost_track) until they agree again",
+        unit_.id, s.rejected, s.available, est::kLostAfterUpdates);
+  if (s.first_reset)
+    log_->warn(
+        "unit {}: the filter reset its covariance to the initial one, state kept (most "
+        "points gated out {} updates in a row, or one point long gated out is plausible "
+        "again); {} covariance resets since start-up",
+        unit_.id, unit_.estimator.max_consecutive_rejections,
+        filter_->counters().covariance_resets);
+  if (s.restart_due) {
+    ++restarts_;
+    if (s.first_restart)
+      log_->warn(
+          "unit {}: still lost after {} updates; the estimator restarts from the measured "
+          "conditions (restart {} since start-up)",
+          unit_.id, est::kRestartAfterLostUpdates, restarts_);
+    start_from_measurements(model_time_s_);
+    flags |= dds::kFlagNumericalReset;
+  }
+  if (s.episode_ended) {
+    const auto& e = track_.last_episode();
+    log_->info(
+        "unit {}: back on track after {} updates with most points gated out ({} covariance "
+        "resets, {} restarts)",
+        unit_.id, e.updates, e.covariance_resets, e.restarts);
+  }
+}
+
 void UnitPipeline::fault_hooks(std::uint64_t cycle) {
   if (hooks_.hang_at_cycle != 0 && cycle == hooks_.hang_at_cycle) {
     log_->warn("unit {}: fault hook: cycle {} hangs", unit_.id, cycle);
@@ -329,8 +362,12 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
       flags |= dds::kFlagDeadlineOverrun;  // out of time: predict only
     } else {
       build_measurements();
+      const std::uint64_t resets_before = filter_->counters().covariance_resets;
       const est::StepStatus st = filter_->update(z_, u_, reports_);
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
+      const bool covariance_reset = filter_->counters().covariance_resets != resets_before;
+      if (covariance_reset) flags |= dds::kFlagNumericalReset;
+      step_track(track_.observe(reports_, covariance_reset), flags);
       for (std::size_t i = 0; i < reports_.size(); ++i)
         if (reports_[i].fused) fused_points_ |= std::uint64_t{1} << i;
       if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;
@@ -346,7 +383,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;
   out.quality = !estimates_valid ? dds::EstimateQuality::kNotReady
                 : flags & (dds::kFlagPredictOnly | dds::kFlagInputHeld | dds::kFlagNumericalReset |
-                           dds::kFlagDeadlineOverrun)
+                           dds::kFlagDeadlineOverrun | dds::kFlagLostTrack)
                     ? dds::EstimateQuality::kDegraded
                     : dds::EstimateQuality::kGood;
   if (out.quality == dds::EstimateQuality::kDegraded) ++degraded_cycles_;

@@ -23,6 +23,7 @@
 #include "daemon/estimation/consistency_monitor.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/estimation/track_monitor.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
 #include "daemon/runtime/checkpoint_writer.hpp"
 #include "daemon/runtime/scheduler.hpp"
@@ -120,6 +121,9 @@ class UnitPipeline {
   void note_consistency(std::size_t figure);
   void publish_consistency(std::int64_t stamp_ns, std::uint64_t cycle);
   void note_quality(dds::EstimateQuality quality, std::uint32_t flags);
+  // Lost track (est::TrackMonitor): the flag on this cycle's samples, a log line per episode, and
+  // the restart when the filter's own covariance resets did not bring it back.
+  void step_track(const est::TrackStep& s, std::uint32_t& flags);
   void fault_hooks(std::uint64_t cycle);
 
   config::UnitConfig unit_;
@@ -171,6 +175,10 @@ class UnitPipeline {
   // estimate the model cannot integrate from) and restarts from the measured conditions. Seen
   // on the heat pump before the parameter hold: 40 failed cycles in a row from the third.
   static constexpr int kRestartAfterFailedPredictions = 6;
+  // A filter that has lost track (est::TrackMonitor) est::kRestartAfterLostUpdates updates in a
+  // row, through the EKF's covariance resets, restarts from the measured conditions; the EnKF,
+  // which does not reset itself, likewise.
+  est::TrackMonitor track_{est::kLostAfterUpdates, est::kRestartAfterLostUpdates};
   bool guessed_ = false;               // the last start used the model's own initial guess
   std::uint64_t restarts_ = 0;         // from the measured conditions, since start-up
   std::int64_t suspect_since_ns_ = 0;  // wall time the current SUSPECT/LEAK episode began

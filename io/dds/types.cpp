@@ -124,6 +124,8 @@ std::string_view flag_name(std::uint32_t single_bit) noexcept {
       return "numerical_reset";
     case kFlagDeadlineOverrun:
       return "deadline_overrun";
+    case kFlagLostTrack:
+      return "lost_track";
     default:
       return "";
   }

@@ -62,6 +62,7 @@ inline constexpr std::uint32_t kFlagInputHeld = 1u << 2;         // a stale inpu
 inline constexpr std::uint32_t kFlagColdStart = 1u << 3;         // no checkpoint restored
 inline constexpr std::uint32_t kFlagNumericalReset = 1u << 4;    // x, P reset this cycle
 inline constexpr std::uint32_t kFlagDeadlineOverrun = 1u << 5;   // this cycle overran
+inline constexpr std::uint32_t kFlagLostTrack = 1u << 6;  // most measured points gated out
 
 // One virtual sensor of the unit the publisher belongs to (site and unit come from it).
 struct VirtualSensorSample {

@@ -154,9 +154,10 @@ int main(int argc, char** argv) {
     const auto& r = results.back();
     std::printf(
         "  %s: %.1f simulated h in %.0f s (%.1f ms per filter step, median); %ld failed filter "
-        "steps, %ld restarts from the measured conditions\n",
+        "steps, %ld restarts from the measured conditions, %ld covariance resets, %ld updates "
+        "lost track\n",
         row.name.c_str(), r.simulated_s / 3600.0, r.wall_s, r.step_ms_median, r.filter_failures,
-        r.restarts);
+        r.restarts, r.covariance_resets, r.lost_updates);
     std::fflush(stdout);
   }
 

@@ -30,6 +30,7 @@
 #include "daemon/estimation/commissioning.hpp"
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/estimation/track_monitor.hpp"
 #include "daemon/runtime/leak_options.hpp"
 #include "plant_models/catalog.hpp"
 #include "tests/bench/heat_pump_scenario.hpp"
@@ -92,6 +93,8 @@ struct LeakRunResult {
   double step_ms_median = 0.0;
   long steps = 0, filter_failures = 0;
   long restarts = 0;              // filter restarts from the measured conditions, as the daemon's
+  long lost_updates = 0;          // updates in which the filter had lost track (TrackMonitor)
+  long covariance_resets = 0;     // the EKF's own (lost track, re-admission)
   bool leak_raised = false;       // LEAK after the leak started (or at all, without a leak)
   double leak_delay_s = -1.0;     // from the leak's start to LEAK
   double suspect_delay_s = -1.0;  // from the leak's start to SUSPECT or LEAK
@@ -177,6 +180,8 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   const est::StatePhases phases(layout, {}, config::EstimatorConfig{}.parameter_hold_s, 0.0);
   constexpr int kRestartAfterFailedPredictions = 6;
   int failed_predictions = 0;
+  bool restart_lost = false;  // the filter lost track kRestartAfterLostUpdates updates in a row
+  est::TrackMonitor track(est::kLostAfterUpdates, est::kRestartAfterLostUpdates);
   double phases_from = 0.0;  // model time of the last (re)start
   Eigen::VectorXd x_before;  // the state before the predict (failure_dump)
   est::LeakDetector detector(o.detector);
@@ -231,10 +236,11 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
 
     bool ok = true;
     const auto t0 = Clock::now();
-    if (k == 0 || failed_predictions >= kRestartAfterFailedPredictions) {
+    if (k == 0 || failed_predictions >= kRestartAfterFailedPredictions || restart_lost) {
       // A start, or a restart from the measured conditions after predictions kept failing, as
       // the daemon does (UnitPipeline::kRestartAfterFailedPredictions), parameters held anew.
       if (k > 0) ++r.restarts;
+      restart_lost = false;
       start_filter(*model, ekf, u, truth.y_measured());
       phases_from = t;
       failed_predictions = 0;
@@ -247,7 +253,13 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
         dump_failure(o.failure_dump, t, ekf.integrator().last_error(), x_before, u);
       failed_predictions = ok ? 0 : failed_predictions + 1;
     }
+    const auto resets_before = ekf.counters().covariance_resets;
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
+    // Lost track, as the daemon judges it; its restart here at the next step.
+    const est::TrackStep track_step =
+        track.observe(reports, ekf.counters().covariance_resets != resets_before);
+    r.lost_updates += track_step.lost ? 1 : 0;
+    restart_lost = track_step.restart_due;
     ok = ekf.output_estimates(u, y, sigma, own_sigma) == plant::kModelOk && ok;
     step_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (!ok) ++r.filter_failures;
@@ -350,6 +362,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   mean(r.leak_est_mean, leak_n);
   mean(r.leak_sigma_mean, leak_n);
   r.last = detector.report();
+  r.covariance_resets = static_cast<long>(ekf.counters().covariance_resets);
   return r;
 }
 

@@ -26,19 +26,10 @@ namespace {
 constexpr int kDomain = 58;
 
 StackOptions resume_options() {
-  StackOptions o;
-  o.domain_id = kDomain;
-  o.time_scale = 10.0;
-  o.period_s = 5.0;
-  o.deadline_s = 0.45;
-  o.poll_period_s = 0.1;
-  o.sim_step_s = 1.0;
-  o.base_config = "config/demo-heat-pump.json";
-  o.customize = [](nlohmann::json& c) {
-    // The topics and the daemon's life are under test here, not the model's accuracy.
-    cheapest_heat_pump(c);
+  StackOptions o = heat_pump_stack_options(kDomain);
+  o.customize = [base = o.customize](nlohmann::json& c) {
+    base(c);  // the topics and the daemon's life are under test here, not the model's accuracy
     auto& e = c["units"][0]["estimator"];
-    e["settle_s"] = 300.0;
     e["checkpoint_every_cycles"] = 4;
     // Short warm-up and decisions, so the detector has history worth keeping within seconds.
     e["leak_detection"] = {

@@ -17,27 +17,8 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// The heat pump at 10x: one 5 s model cycle every 0.5 s of wall time.
-constexpr double kTimeScale = 10.0;
-constexpr double kPeriodS = 5.0;
+// The heat pump at 10x (heat_pump_stack_options): one 5 s model cycle every 0.5 s of wall time.
 constexpr auto kWallPeriod = std::chrono::milliseconds(500);
-
-StackOptions heat_pump_options(int domain) {
-  StackOptions o;
-  o.domain_id = domain;
-  o.time_scale = kTimeScale;
-  o.period_s = kPeriodS;
-  o.deadline_s = 0.45;
-  o.poll_period_s = 0.1;
-  o.sim_step_s = 1.0;
-  o.base_config = "config/demo-heat-pump.json";
-  o.customize = [](nlohmann::json& c) {
-    // The topics and the daemon's life are under test here, not the model's accuracy.
-    cheapest_heat_pump(c);
-    c["units"][0]["estimator"]["settle_s"] = 300.0;  // a shorter start than the demo's
-  };
-  return o;
-}
 
 config::DdsConfig reader_config(int domain) {
   config::DdsConfig c;
@@ -82,7 +63,7 @@ std::optional<std::chrono::milliseconds> time_to_lost_liveliness(
 
 TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once",
           "[integration][leak][dds]") {
-  Stack stack("leak-late", heat_pump_options(56));
+  Stack stack("leak-late", heat_pump_stack_options(56));
   stack.start_sim();
   stack.start_daemon();
   // Let the daemon publish a few cycles with nobody listening in this process.
@@ -137,7 +118,7 @@ TEST_CASE("a killed daemon loses liveliness within the lease, a hung one misses 
   const auto deadline = kWallPeriod * 5 / 2;
 
   SECTION("kill -9") {
-    Stack stack("leak-kill", heat_pump_options(57));
+    Stack stack("leak-kill", heat_pump_stack_options(57));
     stack.start_sim();
     stack.start_daemon();
     std::vector<dds::Record> got;
@@ -159,7 +140,7 @@ TEST_CASE("a killed daemon loses liveliness within the lease, a hung one misses 
   }
 
   SECTION("hung cycle") {
-    Stack stack("leak-hang", heat_pump_options(57));
+    Stack stack("leak-hang", heat_pump_stack_options(57));
     stack.start_sim();
     constexpr int kHangCycle = 12;
     stack.start_daemon({"--fault-hang-at-cycle", std::to_string(kHangCycle)});

@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <time.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -54,6 +55,8 @@ void usage(std::FILE* to) {
       "                      heat transfer, friction ~ mdot^1.75 by specific volume)\n"
       "  --leak G@H          heat pump: a refrigerant leak of G g/h from hour H of the scenario\n"
       "  --charge KG         heat pump: the truth's refrigerant charge (default: nameplate)\n"
+      "  --point NAME=V@H1-H2  the point NAME reads V (in its own unit) from hour H1 to H2 of\n"
+      "                      the scenario: a transmitter gone wrong (repeatable)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
       "  --duration S        stop after S wall seconds (default: run until SIGINT/SIGTERM)\n"
       "  --quiet             no progress lines\n"
@@ -75,12 +78,19 @@ void sleep_until(std::int64_t deadline_ns) {
   }
 }
 
+// --point: a point that reads a fixed value for a while, whatever the plant does.
+struct PointOverride {
+  std::string name;
+  double value = 0.0, from_s = 0.0, to_s = 0.0;
+};
+
 struct Args {
   std::string config, unit, truth_csv;
   long port = -1;
   double time_scale = 0.0, duration = 0.0;
   bool quiet = false;
   hvac_twin::sim::SimOptions sim;
+  std::vector<PointOverride> overrides;
 };
 
 bool parse(int argc, char** argv, Args& a) {
@@ -123,6 +133,14 @@ bool parse(int argc, char** argv, Args& a) {
           at == std::string::npos ? 0.0 : 3600.0 * std::stod(spec.substr(at + 1));
     } else if (arg == "--charge") {
       a.sim.scenario.charge_kg = std::stod(take());
+    } else if (arg == "--point") {
+      const std::string spec = take();
+      const auto eq = spec.find('='), at = spec.find('@'), dash = spec.find('-', at);
+      if (eq == std::string::npos || at == std::string::npos || dash == std::string::npos)
+        return false;
+      a.overrides.push_back({spec.substr(0, eq), std::stod(spec.substr(eq + 1, at - eq - 1)),
+                             3600.0 * std::stod(spec.substr(at + 1, dash - at - 1)),
+                             3600.0 * std::stod(spec.substr(dash + 1))});
     } else if (arg == "--set") {
       const std::string kv = take();
       const auto eq = kv.find('=');
@@ -163,6 +181,14 @@ int main(int argc, char** argv) {
                  args.config.c_str());
     return 2;
   }
+  for (const PointOverride& o : args.overrides) {
+    if (std::none_of(unit->points.begin(), unit->points.end(),
+                     [&](const auto& p) { return p.name == o.name; })) {
+      std::fprintf(stderr, "hvac-twin-sim: --point %s: unit \"%s\" has no such point\n",
+                   o.name.c_str(), unit->id.c_str());
+      return 2;
+    }
+  }
   const double time_scale = args.time_scale > 0.0 ? args.time_scale : cfg.runtime.time_scale;
 
   struct sigaction sa {};
@@ -180,6 +206,10 @@ int main(int argc, char** argv) {
     std::vector<double> values(unit->points.size());
     auto publish = [&] {
       sim.point_values(values);
+      for (const PointOverride& o : args.overrides)
+        for (std::size_t i = 0; i < values.size(); ++i)
+          if (unit->points[i].name == o.name && sim.time_s() >= o.from_s && sim.time_s() < o.to_s)
+            values[i] = o.value;
       for (std::size_t i = 0; i < values.size(); ++i)
         server.set_value(unit->points[i], values[i]);
     };

@@ -27,6 +27,7 @@ static_assert(kFlagInputHeld == hvac_twin_VS_FLAG_INPUT_HELD);
 static_assert(kFlagColdStart == hvac_twin_VS_FLAG_COLD_START);
 static_assert(kFlagNumericalReset == hvac_twin_VS_FLAG_NUMERICAL_RESET);
 static_assert(kFlagDeadlineOverrun == hvac_twin_VS_FLAG_DEADLINE_OVERRUN);
+static_assert(kFlagLostTrack == hvac_twin_VS_FLAG_LOST_TRACK);
 static_assert(static_cast<int>(LeakState::kNormal) == hvac_twin_LEAK_NORMAL);
 static_assert(static_cast<int>(LeakState::kSuspect) == hvac_twin_LEAK_SUSPECT);
 static_assert(static_cast<int>(LeakState::kLeak) == hvac_twin_LEAK_LEAK);

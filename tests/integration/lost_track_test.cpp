@@ -1,0 +1,101 @@
+// Issue 17 items 1 and 2, end to end: the heat pump's two pressure transmitters read an in-range
+// but absurd 5999.9 kPa for two simulated minutes (hvac-twin-sim --point), then the truth again.
+// While most measured points contradict the estimate the daemon must say so on every virtual
+// sensor (quality not GOOD, flag lost_track), log the episode once, and recover: GOOD estimates
+// again within a few minutes of good data, the pressures and the charge back at the truth within
+// their sigma. (Before the recovery was built, the two pressure points stayed gated out after
+// the fault, the discharge pressure's estimate 58 sigma from the truth five minutes later.)
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <map>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include "tests/integration/stack.hpp"
+#include "tests/integration/truth.hpp"
+
+using namespace hvac_twin::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+int count_of(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1))
+    ++n;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and recovered",
+          "[integration][track]") {
+  StackOptions o = heat_pump_stack_options(63);
+  const double bad_from_h = 2.0 / 60.0, bad_to_h = 4.0 / 60.0, end_h = 9.0 / 60.0;
+  const std::string window = "@" + std::to_string(bad_from_h) + "-" + std::to_string(bad_to_h);
+  o.sim_args = {"--point", "suction_pressure=5999.9" + window, "--point",
+                "discharge_pressure=5999.9" + window};
+  Stack stack("lost-track", o);
+  stack.start_sim();
+  stack.start_daemon();
+  const double wall_s = end_h * 3600.0 / o.time_scale;
+  stack.start_echo(wall_s + 10.0, {"--topics", "virtual_sensor"});
+  std::this_thread::sleep_for(std::chrono::duration<double>(wall_s));
+  stack.daemon().signal(SIGTERM);
+  const auto rc = stack.daemon().wait(10s);
+  stack.stop_sim();
+  stack.echo().signal(SIGTERM);
+  stack.echo().wait(5s);
+  const std::string log = stack.daemon().err();
+  INFO("daemon stderr:\n" << log);
+  REQUIRE(rc == 0);
+
+  const Truth truth(stack.path("truth-1.csv"));
+  int lost = 0, lost_good = 0, after = 0, after_good = 0, reset = 0;
+  // The last error and sigma after the recovery of each output judged.
+  std::map<std::string, std::pair<double, double>> last;
+  for (const auto& s : stack.samples()) {
+    if (s["topic"] != "virtual_sensor") continue;
+    const std::string name = s["name"];
+    // (Not the suction pressure: at 4 cells its estimate is 5-6 sigma off without any fault.)
+    if (name != "charge" && name != "discharge_pressure") continue;
+    const auto t = s["timestamp_ns"].get<std::int64_t>();
+    const double model_h = truth.model_time(t) / 3600.0;
+    const auto& names = s["flag_names"];
+    const bool flagged = std::find(names.begin(), names.end(), "lost_track") != names.end();
+    if (name == "charge" && std::find(names.begin(), names.end(), "numerical_reset") != names.end())
+      ++reset;
+    if (name == "charge" && flagged) {
+      ++lost;
+      if (s["quality"] == "GOOD") ++lost_good;
+    }
+    if (model_h > bad_to_h + 3.0 / 60.0) {  // three minutes of good data later
+      if (name == "charge") {
+        ++after;
+        if (s["quality"] == "GOOD" && !flagged) ++after_good;
+      }
+      last[name] = {s["value"].get<double>() - truth.at(t, "output:" + name), s["sigma"]};
+    }
+  }
+  INFO("lost_track samples " << lost << " (GOOD " << lost_good << "); after recovery " << after
+                             << " samples, GOOD " << after_good << "; numerical_reset " << reset);
+  CHECK(lost >= 2);
+  CHECK(lost_good == 0);
+  CHECK(count_of(log, "lost track:") >= 1);
+  CHECK(count_of(log, "lost track:") == count_of(log, "back on track after"));
+  // The filter's own covariance reset (issue 17 item 2) is flagged on the samples and logged.
+  CHECK(reset >= 1);
+  CHECK(count_of(log, "the filter reset its covariance") >= 1);
+  REQUIRE(after >= 10);
+  CHECK(after_good >= after * 9 / 10);
+  // Back at the truth within the published uncertainty (which carries the 4-cell model's
+  // structural error). Seen: the discharge pressure 1.2 sigma off, the charge 0.4 sigma; without
+  // the fault 0.8-1.1 and 0.4.
+  REQUIRE(last.size() == 2);
+  for (const auto& [name, e] : last) {
+    INFO(name << ": last error " << e.first << ", sigma " << e.second);
+    CHECK(std::abs(e.first) < 3.0 * e.second);
+  }
+}
