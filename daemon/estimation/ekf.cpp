@@ -201,8 +201,14 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   }
   for (std::size_t i = 0; i < count; ++i) {
     if (!reports[i].fused || (reset && held_[i] >= 0)) continue;
-    readmit_at_[i] = 0;  // fused: disarmed; the back-off forgotten unless this is a reset
-    if (!reset) readmit_interval_[i] = 0;
+    if (!reset) {
+      readmit_at_[i] = 0;  // fused by the gate: disarmed, the back-off forgotten
+      readmit_interval_[i] = 0;
+    } else if (readmit_at_[i] != 0) {
+      // Let in by a reset: one update linearised far from the truth may not be enough, so it
+      // stays armed, tested again readmit_interval_ rejections from now should it fall out.
+      readmit_at_[i] = readmit_interval_[i];
+    }
     fuse(z[i].output, reports[i].innovation,
          std::max(z[i].variance, options_.min_measurement_variance));
     ++counters_.fused;

@@ -143,7 +143,8 @@ class Ekf final : public Estimator {
   // Per slot, armed when a covariance reset held the point out and its re-test failed: the
   // rejections in a row at which it is next tested against the initial covariance (0:
   // disarmed), 2 x max_consecutive_rejections later, the interval doubling after each test (a
-  // transmitter that stays wrong costs a covariance reset ever more rarely); disarmed when fused.
+  // transmitter that stays wrong costs a covariance reset ever more rarely); disarmed when the
+  // gate lets it in, kept armed when a reset did (one update far from the truth may not do).
   std::vector<int> readmit_at_, readmit_interval_;
   static constexpr int kMaxReadmitInterval = 1 << 20;
   std::vector<double> x_buf_;  // contiguous scratch for the integrator
