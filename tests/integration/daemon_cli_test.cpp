@@ -97,12 +97,7 @@ TEST_CASE("check-config names every error by JSON pointer and exits 78", "[integ
 
 TEST_CASE("READY=1 after start-up, WATCHDOG=1 from completed cycles, clean SIGTERM",
           "[integration][systemd]") {
-  StackOptions o;
-  o.domain_id = 53;
-  o.time_scale = 60.0;
-  o.period_s = 30.0;  // 0.5 s wall
-  o.poll_period_s = 0.1;
-  Stack stack("notify", o);
+  Stack stack("notify", zone_stack_options(53));
   stack.start_sim();
   NotifySocket systemd;
   stack.start_daemon({}, {"NOTIFY_SOCKET=" + systemd.path(), "WATCHDOG_USEC=2000000"});
@@ -133,12 +128,7 @@ TEST_CASE("a daemon whose log reader is gone shuts down cleanly, not by SIGPIPE"
   // Issue 17: Ctrl-C on the demo ended its `sed`, which read the daemon's stderr, first; the
   // daemon's shut-down log line then killed it by SIGPIPE (status 141) in the middle of its
   // shut-down. Here its stderr is a FIFO whose only reader the test closes.
-  StackOptions o;
-  o.domain_id = 58;
-  o.time_scale = 60.0;
-  o.period_s = 30.0;  // 0.5 s wall
-  o.poll_period_s = 0.1;
-  Stack stack("sigpipe", o);
+  Stack stack("sigpipe", zone_stack_options(58));
   stack.start_sim();
   const std::string fifo = stack.path("daemon.err");
   REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);

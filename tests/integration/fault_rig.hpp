@@ -17,6 +17,7 @@
 
 #include "tests/fault/fault_server.hpp"
 #include "tests/integration/process.hpp"
+#include "tests/integration/stack.hpp"
 
 namespace hvac_twin::test {
 
@@ -67,16 +68,7 @@ class FaultRig {
   Process& daemon() { return *daemon_; }
 
   // Every complete JSON line the echo has written so far.
-  std::vector<nlohmann::json> samples() const {
-    std::vector<nlohmann::json> out;
-    std::ifstream f(path("echo.jsonl"));
-    std::string line;
-    while (std::getline(f, line)) {
-      if (f.eof()) break;  // no newline yet: still being written
-      out.push_back(nlohmann::json::parse(line));
-    }
-    return out;
-  }
+  std::vector<nlohmann::json> samples() const { return read_json_lines(path("echo.jsonl")); }
 
  private:
   void write_config(int port) const {

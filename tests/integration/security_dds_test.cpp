@@ -42,15 +42,6 @@ bool has_topic(const std::string& file, const std::string& topic) {
   return false;
 }
 
-StackOptions fast_options(int domain) {
-  StackOptions o;
-  o.domain_id = domain;
-  o.time_scale = 60.0;
-  o.period_s = 30.0;  // 0.5 s wall
-  o.poll_period_s = 0.1;
-  return o;
-}
-
 nlohmann::json security_json(const hvac_twin::config::DdsSecurityConfig& s) {
   return {{"identity_ca", s.identity_ca}, {"identity_certificate", s.identity_certificate},
           {"private_key", s.private_key}, {"permissions_ca", s.permissions_ca},
@@ -80,7 +71,7 @@ TEST_CASE(
   INFO(capture.error());
   REQUIRE(capture.error().empty());
 
-  StackOptions o = fast_options(63);
+  StackOptions o = zone_stack_options(63);
   // The daemon's files come as systemd's LoadCredential= would hand them over, under the names
   // of systemd/dds-security.conf, in a directory named by CREDENTIALS_DIRECTORY.
   o.customize = [](nlohmann::json& c) {
@@ -184,7 +175,7 @@ TEST_CASE("without DDS Security the same capture reads the topic names on loopba
   REQUIRE(netns.empty());
   LoopbackCapture capture;
   REQUIRE(capture.error().empty());
-  StackOptions o = fast_options(64);
+  StackOptions o = zone_stack_options(64);
   o.customize = [](nlohmann::json& c) {
     c["site_id"] = kSite;
     c["dds"]["topic_prefix"] = kPrefix;
@@ -203,7 +194,7 @@ TEST_CASE("without DDS Security the same capture reads the topic names on loopba
 
 TEST_CASE("bad DDS Security material stops start-up with a clear error",
           "[integration][security]") {
-  StackOptions o = fast_options(65);
+  StackOptions o = zone_stack_options(65);
   Stack stack("security-bad", o);
   const TestPki pki(stack.path("pki"), o.domain_id, kPrefix);
   auto security = pki.security("daemon");

@@ -64,9 +64,9 @@ void Stack::start_echo(double duration_s, const std::vector<std::string>& extra_
   echo_ = std::make_unique<Process>(HVAC_TWIN_ECHO_EXE, args, path("echo.jsonl"), path("echo.err"));
 }
 
-std::vector<nlohmann::json> Stack::samples() const {
+std::vector<nlohmann::json> read_json_lines(const std::string& path) {
   std::vector<nlohmann::json> out;
-  std::ifstream f(path("echo.jsonl"));
+  std::ifstream f(path);
   std::string line;
   while (std::getline(f, line)) {
     if (f.eof()) break;  // no newline yet: still being written

@@ -44,10 +44,23 @@ inline void cheapest_heat_pump(nlohmann::json& c) {
   p["two_phase_htc"] = 0;
 }
 
+// Every complete JSON line of the file (a partial last line, still being written, is skipped).
+std::vector<nlohmann::json> read_json_lines(const std::string& path);
+
 // The first match of ECMAScript regex `pattern` in `text`: the whole match, then each capture
 // group; nullopt when there is none. (Here, not <regex> in every test: see stack.cpp.)
 std::optional<std::vector<std::string>> regex_find(const std::string& text,
                                                    const std::string& pattern);
+
+// The zone daemon for tests of its life and its wire: 60x real time, a 30 s period (0.5 s wall).
+inline StackOptions zone_stack_options(int domain) {
+  StackOptions o;
+  o.domain_id = domain;
+  o.time_scale = 60.0;
+  o.period_s = 30.0;
+  o.poll_period_s = 0.1;
+  return o;
+}
 
 // The heat-pump daemon for tests of its topics and its life: the cheapest model
 // (cheapest_heat_pump), a shorter start than the demo's, 10x real time with a 5 s period (0.5 s
@@ -112,7 +125,7 @@ class Stack {
   const StackOptions& options() const { return o_; }
 
   // Every JSON line the echo has written so far (a partial last line is skipped).
-  std::vector<nlohmann::json> samples() const;
+  std::vector<nlohmann::json> samples() const { return read_json_lines(path("echo.jsonl")); }
 
   // The demo configuration, made fast and private to this stack.
   void write_config(int port) const;

@@ -49,15 +49,6 @@ std::string families(const std::string& unit_value, const std::string& drop = ""
   return out;
 }
 
-StackOptions fast_options(int domain) {
-  StackOptions o;
-  o.domain_id = domain;
-  o.time_scale = 60.0;
-  o.period_s = 30.0;  // 0.5 s wall
-  o.poll_period_s = 0.1;
-  return o;
-}
-
 std::unique_ptr<Process> start_sandboxed_daemon(Stack& stack, const std::vector<std::string>& jail,
                                                 const std::vector<std::string>& env) {
   stack.write_config(stack.port() == 0 ? 1 : stack.port());
@@ -85,7 +76,7 @@ TEST_CASE("hvac-twind works under the unit's address-family and system-call filt
   REQUIRE(syscalls.count("setuid") == 0);
   REQUIRE(syscalls.count("sched_setscheduler") == 0);
 
-  Stack stack("sandbox", fast_options(60));
+  Stack stack("sandbox", zone_stack_options(60));
   const std::string list = stack.path("syscalls.txt");
   {
     std::ofstream out(list);
@@ -131,7 +122,7 @@ TEST_CASE("without AF_NETLINK hvac-twind stops at start-up and says why",
   const std::string allowed =
       families(unit.at("Service.RestrictAddressFamilies").back(), "AF_NETLINK");
   REQUIRE(allowed == "AF_UNIX,AF_INET,AF_INET6");
-  Stack stack("sandbox-nonetlink", fast_options(61));
+  Stack stack("sandbox-nonetlink", zone_stack_options(61));
   NotifySocket systemd;
   auto daemon = start_sandboxed_daemon(stack, {"--address-families", allowed},
                                        {"NOTIFY_SOCKET=" + systemd.path()});
