@@ -119,6 +119,7 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   lost_updates_ = 0;
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
   std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
+  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);  // a fresh back-off
 }
 
 bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major,
@@ -140,6 +141,7 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   lost_updates_ = 0;
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
   std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
+  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);  // a fresh back-off
   active_count_ = 0;
   return true;
 }
