@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <random>
@@ -62,6 +63,21 @@ inline const std::vector<Measured> kMeasured{{plant::hp::kSuctionPressure, 0.005
                                              {plant::hp::kEvapWallTempIn, 0.0, 0.2, 0.25},
                                              {plant::hp::kEvapWallTempOut, 0.0, 0.2, 0.25},
                                              {plant::hp::kZoneAirTemperature, 0.0, 0.05, 0.0}};
+
+// One failed integration, to replay it alone (predict_replay): the time, whose integration
+// ("filter" or "truth") and the integrator's message, then the state and the inputs before it.
+template <class Vector>
+void dump_failure(std::FILE* f, double t, const char* who, const char* error, const Vector& x,
+                  const std::vector<double>& u) {
+  std::fprintf(f, "t %.1f: %s: %s\nx", t, who, error);
+  for (const double v : x)
+    std::fprintf(f, " %.17g", v);
+  std::fprintf(f, "\nu");
+  for (const double v : u)
+    std::fprintf(f, " %.17g", v);
+  std::fprintf(f, "\n");
+  std::fflush(f);
+}
 
 enum class TruthKind { kNominal, kMismatched, kSensorBias };
 
@@ -125,11 +141,17 @@ class HeatPumpTruth {
   }
 
   // Integrates over dt with u() held and measures at the end. Throws std::runtime_error when the
-  // truth fails (a benchmark without its truth has nothing to report).
+  // truth fails (a benchmark without its truth has nothing to report), after writing the state
+  // and inputs it failed from to failure_dump when set (predict_replay --truth replays it).
   void advance(double dt) {
-    if (!integrator_.step(x_, u_, dt, {}).ok())
+    x_before_ = x_;
+    if (!integrator_.step(x_, u_, dt, {}).ok()) {
+      if (failure_dump != nullptr)
+        dump_failure(failure_dump, t_, "truth", integrator_.last_error(), x_before_, u_);
       throw std::runtime_error(std::string("truth integration failed: ") +
                                integrator_.last_error());
+    }
+    t_ += dt;
     model_->outputs(x_, u_, y_);
     z_.clear();
     for (const auto& m : kMeasured) {
@@ -142,6 +164,8 @@ class HeatPumpTruth {
       y_measured_[m.output] = v;
     }
   }
+
+  std::FILE* failure_dump = nullptr;
 
   [[nodiscard]] const plant::ContinuousModel& model() const { return *model_; }
   [[nodiscard]] const std::vector<double>& x() const { return x_; }
@@ -161,7 +185,8 @@ class HeatPumpTruth {
 
   std::unique_ptr<plant::ContinuousModel> model_;
   std::unique_ptr<sim::Scenario> scenario_;
-  std::vector<double> x_, u_, y_, y_measured_;
+  std::vector<double> x_, u_, y_, y_measured_, x_before_;
+  double t_ = 0.0;                                     // time integrated so far [s]
   std::array<double, plant::hp::kNumOutputs> bias_{};  // sensor bias per output [output unit]
   std::vector<est::Measurement> z_;
   plant::Integrator integrator_;

@@ -2,7 +2,8 @@
 // (leak_bench --trace-dir DIR writes DIR/leak_bench_X_failures.txt): the state and inputs
 // before the failed prediction. Prints CVODES's verdict with and without sensitivities, how far
 // the state integrates in sub-periods, the outputs along the way and the states at or near their
-// bounds where it stops.
+// bounds where it stops. A dump of the truth's failed integration (its header says "truth")
+// replays the truth's model (TruthKind::kNominal) at the truth's tolerance.
 //
 //   predict_replay FILE [--index K] [--period S]
 #include <cmath>
@@ -111,7 +112,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   const Dump& d = dumps[index];
-  auto model = plant::create_model("heat_pump_r32", bench::filter_parameters());
+  // A dump of the truth's integration (HeatPumpTruth::advance) replays the truth's model at its
+  // tolerance; one of a filter's, the filter's.
+  const bool truth = d.header.find(": truth: ") != std::string::npos;
+  auto model = plant::create_model(
+      "heat_pump_r32",
+      truth ? bench::truth_parameters(bench::TruthKind::kNominal) : bench::filter_parameters());
+  auto base_options = est::filter_integrator_options();
+  if (truth) base_options.rel_tol = 1e-8;
   if (d.x.size() != model->num_states()) {
     std::fprintf(stderr, "%s: %zu states, the model has %zu\n", argv[1], d.x.size(),
                  model->num_states());
@@ -122,13 +130,13 @@ int main(int argc, char** argv) {
   print_states(*model, d.x);
   print_near_bounds(*model, d.x);
 
-  plant::Integrator with_f(*model, [] {
-    auto o = est::filter_integrator_options();
+  plant::Integrator with_f(*model, [&] {
+    auto o = base_options;
     o.sensitivities = true;
     return o;
   }());
-  plant::Integrator plain(*model, est::filter_integrator_options());
-  auto unlimited_options = est::filter_integrator_options();
+  plant::Integrator plain(*model, base_options);
+  auto unlimited_options = base_options;
   unlimited_options.max_steps = 200000;
   plant::Integrator unlimited(*model, unlimited_options);
   try_step(with_f, d.x, d.u, period, "with F");
@@ -136,7 +144,7 @@ int main(int argc, char** argv) {
   try_step(plain, d.x, d.u, period, "state only");
   try_step(plain, d.x, d.u, period, "state only, again");
   try_step(unlimited, d.x, d.u, period, "state only, 200000 steps");
-  auto cvodes_options = est::filter_integrator_options();
+  auto cvodes_options = base_options;
   cvodes_options.sensitivities = true;
   cvodes_options.sensitivity_method = plant::SensitivityMethod::kCvodesNewton;
   plant::Integrator cvodes(*model, cvodes_options);
@@ -148,16 +156,16 @@ int main(int argc, char** argv) {
   double t = 0.0;
   for (double h = period / 64.0; t < period - 1e-9;) {
     std::vector<double> trial = x;
-    const auto r = unlimited.step(trial, d.u, h, none);
+    const auto r = plain.step(trial, d.u, h, none);
     if (!r.ok()) {
-      std::printf("  stuck at %.6g s with a %.3g s sub-step: %s\n", t, h, unlimited.last_error());
+      std::printf("  stuck at %.6g s with a %.3g s sub-step: %s\n", t, h, plain.last_error());
       if (h < 1e-9) break;
       h *= 0.25;
       continue;
     }
     x = trial;
     t += h;
-    std::printf("  %.6g s: %ld steps\n", t, unlimited.last_stats().steps);
+    std::printf("  %.6g s: %ld steps\n", t, plain.last_stats().steps);
   }
   print_outputs(*model, x, d.u);
   print_states(*model, x);

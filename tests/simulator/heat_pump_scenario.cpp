@@ -4,6 +4,13 @@
 //  - thermostat: zone setpoint 24 degC from 08:00 to 22:00, 26 degC at night; a PI loop sets
 //    the compressor speed in [20, 90] Hz
 //  - expansion valve: a PI loop holds 6 K of superheat, opening within [0.1, 0.8]
+//  - stops: a caller may stop the unit (speed 0 in u after drive(), as leak_bench's night
+//    set-back does). While it stands both loops hold their integrators and the valve goes to its
+//    start opening; a start ramps the speed from 30 Hz at 2 Hz/s, as inverter units start.
+//    Without this the valve loop wound down to its 0.1 floor during a stop (no superheat at
+//    rest) and the thermostat restarted at 90 Hz: the compressor emptied the starved evaporator
+//    within 2 s, the discharge passed 162 degC (the R32 equation of state's limit; a real
+//    compressor trips its discharge-temperature protection first) and the truth failed.
 //  - fans: indoor at rated flow by day, 70 % at night; outdoor following the compressor speed
 //  - optional leak: leak_g_per_h from leak_start_s on; optional truth charge
 // The day starts at 08:00 (t = 0), from the model's start-up state at the scenario's conditions.
@@ -49,20 +56,29 @@ class HeatPumpScenario final : public Scenario {
     if (L.q_int != kNone) x[L.q_int] = gains_;
     if (L.leak != kNone) x[L.leak] = t >= o_.leak_start_s ? o_.leak_g_per_h : 0.0;
 
-    // Thermostat: PI on the zone temperature, anti-windup by integrating only when unsaturated.
+    // Whether the unit stood over the last period: u holds what the caller applied (the day
+    // starts with the unit running, from the model's start-up state).
+    const bool stood = t > 0.0 && u[kCompressorSpeed] < kStoppedBelowHz;
+    if (stood) started_ = t;
+
+    // Thermostat: PI on the zone temperature, anti-windup by integrating only when unsaturated
+    // and running; the start ramp caps the speed.
     const double error = y[kZoneAirTemperature] - (day ? 24.0 : 26.0);
     const double speed = 45.0 + 25.0 * error + 0.02 * (speed_integral_ + error * dt);
     const double clamped = std::clamp(speed, 20.0, 90.0);
-    if (clamped == speed) speed_integral_ += error * dt;
-    u[kCompressorSpeed] = clamped;
-    // Superheat: integral action on the opening (6 K target).
-    valve_ = std::clamp(valve_ + dt * 0.0008 * (y[kSuperheat] - 6.0), 0.1, 0.8);
+    if (clamped == speed && !stood) speed_integral_ += error * dt;
+    u[kCompressorSpeed] = std::min(clamped, kStartHz + kRampHzPerS * (t - started_));
+    // Superheat: integral action on the opening (6 K target); the start opening while standing.
+    valve_ =
+        stood ? kStartOpening : std::clamp(valve_ + dt * 0.0008 * (y[kSuperheat] - 6.0), 0.1, 0.8);
     u[kValveOpening] = valve_;
     u[kIndoorFan] = day ? 1.0 : 0.7;
-    u[kOutdoorFan] = 0.6 + 0.4 * (clamped - 20.0) / 70.0;
+    u[kOutdoorFan] = 0.6 + 0.4 * (u[kCompressorSpeed] - 20.0) / 70.0;
   }
 
  private:
+  static constexpr double kStartHz = 30.0, kRampHzPerS = 2.0, kStartOpening = 0.35;
+
   static double outdoor(double t) {
     const double clock = std::fmod(kStartOfDay + t, kDay);
     return 30.0 + 6.0 * std::sin(2.0 * std::numbers::pi * (clock - 9.0 * 3600.0) / kDay);
@@ -74,7 +90,8 @@ class HeatPumpScenario final : public Scenario {
   long gain_block_ = -1;
   double gains_ = 0.0;
   double speed_integral_ = 0.0;
-  double valve_ = 0.35;
+  double valve_ = kStartOpening;
+  double started_ = 0.0;  // when the unit last started [s]
 };
 
 }  // namespace
