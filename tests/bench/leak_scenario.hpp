@@ -108,6 +108,10 @@ struct LeakRunResult {
   // while running and not in start-up (the bands are judged there).
   double referred_mae = 0.0, referred_max = 0.0;
   double truth_loss_kg = 0.0, est_loss_kg = 0.0;
+  // Largest departure of the charge estimate within a stop from its value at the stop carried
+  // on by the leak-rate estimate then: what holding both at rest gives (the charge is not
+  // observable at rest) [kg].
+  double stopped_drift_max = 0.0;
   double leak_est_mean = 0.0;  // mean leak-rate estimate while judgeable after the leak start
   double leak_sigma_mean = 0.0;
   // Heat flows, scored while the compressor ran (after score_after_s, not in start-up).
@@ -149,18 +153,6 @@ inline LeakRunOptions short_form(LeakRunOptions o) {
   return o;
 }
 
-inline void dump_failure(std::FILE* f, double t, const char* error, const Eigen::VectorXd& x,
-                         const std::vector<double>& u) {
-  std::fprintf(f, "t %.1f: %s\nx", t, error);
-  for (const double v : x)
-    std::fprintf(f, " %.17g", v);
-  std::fprintf(f, "\nu");
-  for (const double v : u)
-    std::fprintf(f, " %.17g", v);
-  std::fprintf(f, "\n");
-  std::fflush(f);
-}
-
 inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   using namespace plant::hp;
   using Clock = std::chrono::steady_clock;
@@ -169,6 +161,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   so.leak_g_per_h = o.leak_g_per_h;
   so.leak_start_s = o.leak_g_per_h > 0.0 ? o.leak_start_s : 1e30;
   HeatPumpTruth truth(so, o.noise_seed);
+  truth.failure_dump = o.failure_dump;
   std::unique_ptr<plant::ContinuousModel> model =
       plant::create_model("heat_pump_r32", filter_parameters());
   const auto& layout = model->layout();
@@ -190,6 +183,9 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   const std::size_t truth_leak = *truth_layout.state("leak_rate");
   const std::size_t truth_m_cond = *truth_layout.state("M_cond");
   const auto i_m_cond = static_cast<Eigen::Index>(*layout.state("M_cond"));
+  const auto i_charge = static_cast<Eigen::Index>(*layout.state("charge"));
+  const auto i_leak = static_cast<Eigen::Index>(*layout.state("leak_rate"));
+  double charge_at_stop = -1.0, leak_at_stop = 0.0, stopped_at = 0.0;
 
   std::vector<double> y(model->num_outputs()), sigma(model->num_outputs()),
       own_sigma(model->num_outputs());
@@ -229,6 +225,15 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
       if (o.operation.off_valve >= 0.0) u[kValveOpening] = o.operation.off_valve;
     }
     if (running && !prev_running) last_start = t;
+    if (!running && prev_running) {
+      charge_at_stop = ekf.state()(i_charge);
+      leak_at_stop = ekf.state()(i_leak) / 3.6e6;  // g/h -> kg/s
+      stopped_at = t;
+    }
+    if (!running && charge_at_stop >= 0.0) {
+      const double held = charge_at_stop - leak_at_stop * (t - stopped_at);
+      r.stopped_drift_max = std::max(r.stopped_drift_max, std::abs(ekf.state()(i_charge) - held));
+    }
     prev_running = running;
     truth.advance(o.period_s);
     const double t_end = t + o.period_s;
@@ -250,7 +255,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
       if (o.failure_dump != nullptr) x_before = ekf.state();
       ok = ekf.predict(u, o.period_s) == est::StepStatus::kOk;
       if (!ok && failed_predictions == 0 && o.failure_dump != nullptr)
-        dump_failure(o.failure_dump, t, ekf.integrator().last_error(), x_before, u);
+        dump_failure(o.failure_dump, t, "filter", ekf.integrator().last_error(), x_before, u);
       failed_predictions = ok ? 0 : failed_predictions + 1;
     }
     const auto resets_before = ekf.counters().covariance_resets;
