@@ -88,6 +88,11 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
       deadline_ns_(static_cast<std::int64_t>(std::llround(unit_.estimator.deadline_s * 1e9))) {
   model_ = plant::create_model(unit_.model.type, unit_.model.parameters);
   const plant::ModelLayout& layout = model_->layout();
+  phases_cold_ = std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{},
+                                                    unit_.estimator.parameter_hold_s, 0.0);
+  phases_resumed_ =
+      std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{}, 0.0, 0.0);
+  phases_ = phases_cold_.get();
 
   // Initial state, its uncertainty and the process noise: model defaults, then configuration.
   std::vector<double> q;
@@ -244,8 +249,7 @@ void UnitPipeline::initialize() {
                guessed_ ? " from the model's guess at the measured conditions" : "");
   } else {
     // A resumed filter has its parameters: no settling hold, only the excitation holds.
-    phases_ = std::make_unique<est::StatePhases>(model_->layout(), std::vector<est::KnownState>{},
-                                                 0.0, 0.0);
+    phases_ = phases_resumed_.get();
     phases_->apply(*filter_, 0.0);
   }
 }
@@ -273,9 +277,27 @@ void UnitPipeline::start_from_measurements(double model_time_s) {
   filter_->reset(guess_x_, std0_);
   failed_predictions_ = 0;
   phases_from_s_ = model_time_s;
-  phases_ = std::make_unique<est::StatePhases>(model_->layout(), std::vector<est::KnownState>{},
-                                               unit_.estimator.parameter_hold_s, 0.0);
+  phases_ = phases_cold_.get();
   phases_->apply(*filter_, 0.0);
+  cold_start_ = true;  // converging again
+  converged_updates_ = 0;
+}
+
+void UnitPipeline::step_convergence(bool updated) {
+  if (!cold_start_) return;
+  bool agree = updated && !phases_->settling(model_time_s_ - phases_from_s_);
+  bool fused = false;
+  for (const auto& r : reports_) {
+    fused = fused || r.fused;
+    if (r.available && !r.fused && !r.faulty) agree = false;
+  }
+  converged_updates_ = agree && fused ? converged_updates_ + 1 : 0;
+  if (converged_updates_ < kConvergedAfterUpdates) return;
+  cold_start_ = false;
+  log_->info(
+      "unit {}: the estimator has converged {:.0f} model seconds after its start (every point "
+      "agreed with it {} updates in a row): flag cold_start cleared",
+      unit_.id, model_time_s_ - phases_from_s_, kConvergedAfterUpdates);
 }
 
 void UnitPipeline::step_track(const est::TrackStep& s, std::uint32_t& flags) {
@@ -330,7 +352,6 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   const bool inputs_ready = read_inputs(flags);
 
   if (!initialized_ && inputs_ready) initialize();
-  if (cold_start_) flags |= dds::kFlagColdStart;
   if (initialized_) {
     out.ran_estimator = true;
     if (have_prev_) {
@@ -373,11 +394,13 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
       if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;
     }
     step_consistency(in_time);
+    step_convergence(in_time);
     if (fused_points_ == 0) flags |= dds::kFlagPredictOnly;
     u_prev_ = u_;
     have_prev_ = true;
   }
 
+  if (initialized_ && cold_start_) flags |= dds::kFlagColdStart;  // after a restart this cycle too
   const bool estimates_valid =
       initialized_ && filter_->output_estimates(u_, y_, sigma_, filter_sigma_) == plant::kModelOk;
   if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;

@@ -78,7 +78,7 @@ class UnitPipeline {
   [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
   // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
   [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
-  [[nodiscard]] bool cold_start() const { return cold_start_; }          // cycle thread
+  [[nodiscard]] bool cold_start() const { return cold_start_; }          // converging; cycle thread
   [[nodiscard]] const GuardCounters& guards() const { return guards_; }  // cycle thread
   [[nodiscard]] dds::PublisherStats publisher_stats() const { return publisher_->stats(); }
 
@@ -168,7 +168,10 @@ class UnitPipeline {
   double model_time_s_ = 0.0;      // model time since the filter started [s]
   // Augmented states held (considered) after a cold start, and parameters while their process
   // stands still (est::StatePhases).
-  std::unique_ptr<est::StatePhases> phases_;
+  // Both built with the pipeline (a restart allocates nothing): after a start from the measured
+  // conditions with the settling hold, after a resume without it; phases_ is the one in use.
+  std::unique_ptr<est::StatePhases> phases_cold_, phases_resumed_;
+  const est::StatePhases* phases_ = nullptr;
   double phases_from_s_ = 0.0;  // the model time the phases count from [s]
   int failed_predictions_ = 0;  // in a row
   // A filter whose predictions failed this many cycles in a row is lost (each failure keeps the
@@ -200,7 +203,14 @@ class UnitPipeline {
   FilterSnapshot snapshot_;  // sized once; refilled in place before every save
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;  // after the store: stopped before it
   std::uint64_t cycles_since_checkpoint_ = 0;
-  bool cold_start_ = true;  // no checkpoint restored since start
+  // Flag cold_start: the filter started (or restarted) from the measured conditions and has not
+  // converged yet. Cleared once the settling hold is over and every available point was fused
+  // (or is a reported fault) kConvergedAfterUpdates updates in a row; a resume from a
+  // checkpoint never sets it.
+  bool cold_start_ = true;
+  int converged_updates_ = 0;  // in a row
+  static constexpr int kConvergedAfterUpdates = 12;
+  void step_convergence(bool updated);
 
   bool initialized_ = false;
   bool have_prev_ = false;

@@ -59,10 +59,10 @@ enum class PointQuality : std::uint8_t {
 inline constexpr std::uint32_t kFlagPredictOnly = 1u << 0;       // no measurement fused
 inline constexpr std::uint32_t kFlagConstraintActive = 1u << 1;  // constrained update at a bound
 inline constexpr std::uint32_t kFlagInputHeld = 1u << 2;         // a stale input was held
-inline constexpr std::uint32_t kFlagColdStart = 1u << 3;         // no checkpoint restored
+inline constexpr std::uint32_t kFlagColdStart = 1u << 3;         // fresh start, converging
 inline constexpr std::uint32_t kFlagNumericalReset = 1u << 4;    // x, P reset this cycle
 inline constexpr std::uint32_t kFlagDeadlineOverrun = 1u << 5;   // this cycle overran
-inline constexpr std::uint32_t kFlagLostTrack = 1u << 6;  // most measured points gated out
+inline constexpr std::uint32_t kFlagLostTrack = 1u << 6;         // most measured points gated out
 
 // One virtual sensor of the unit the publisher belongs to (site and unit come from it).
 struct VirtualSensorSample {

@@ -12,10 +12,14 @@
 // uncertainty is honest. The mass temperature is judged in the same windows: mean |error| below
 // 0.3 K and within 3 sigma. Observed over several runs: gains 60-140 W mean, below 2 sigma;
 // mass below 0.15 K.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
 #include <thread>
+#include <vector>
 
+#include "io/dds/types.hpp"
 #include "tests/integration/stack.hpp"
 #include "tests/integration/truth.hpp"
 
@@ -143,9 +147,11 @@ TEST_CASE("estimator.type selects the filter the daemon runs, end to end", "[int
     const Truth truth(stack.path("truth-1.csv"));
     ErrorStats mass;
     int good = 0;
+    std::vector<bool> cold;  // per mass_temperature sample: flagged cold_start
     for (const auto& s : stack.samples()) {
       if (s["name"] != "mass_temperature") continue;
       if (s["quality"] == "GOOD") ++good;
+      cold.push_back((s["flags"].get<std::uint32_t>() & hvac_twin::dds::kFlagColdStart) != 0);
       const auto t = s["timestamp_ns"].get<std::int64_t>();
       if (truth.model_time(t) < 3600.0) continue;
       mass.add(s["value"].get<double>() - truth.at(t, "state:T_mass"), s["sigma"]);
@@ -154,5 +160,14 @@ TEST_CASE("estimator.type selects the filter the daemon runs, end to end", "[int
     CHECK(good > 60);
     REQUIRE(mass.n > 40);
     CHECK(mass.mean_abs() < 0.5);
+    // Started cold, the estimates say so until the filter has converged (after its 600 s
+    // parameter hold, every point fused 12 updates in a row), then never again in this run.
+    const auto first_warm = std::find(cold.begin(), cold.end(), false);
+    INFO("cold_start on " << first_warm - cold.begin() << " of " << cold.size() << " samples");
+    REQUIRE(!cold.empty());
+    CHECK(cold.front());
+    CHECK(first_warm != cold.end());
+    CHECK(std::find(first_warm, cold.end(), true) == cold.end());
+    CHECK_THAT(stack.daemon().err(), Catch::Contains("flag cold_start cleared"));
   }
 }
