@@ -276,6 +276,18 @@ ModelLayout HeatPumpR32::make_layout() const {
   if (L_.leak != hp::kNone)
     set(L_.leak, "leak_rate", "g/h", -50.0, 1000.0, 2.0, 1e-3, 1e-6, true,
         "refrigerant leak rate (random walk; negative: no loss seen)");
+  // At rest the charge is not observable: the valve shut, the low side evaporates to vapour
+  // whose mass its pressure and temperature give, but the high side stays two-phase, its
+  // pressure the saturation pressure of its temperature whatever it holds. An update then moves
+  // the charge on the standing unit's innovations (leak_bench (c), the night stop: 0.528 ->
+  // 0.600 kg, its bound, in an hour; truth 0.495). Both are held while the compressor stands,
+  // their sigma growing with their random walks; a loss at rest shows at the next start.
+  l.states[L_.charge].excited_by = static_cast<int>(hp::kCompressorSpeed);
+  l.states[L_.charge].excitation_min = hp::kStoppedBelowHz;
+  if (L_.leak != hp::kNone) {
+    l.states[L_.leak].excited_by = static_cast<int>(hp::kCompressorSpeed);
+    l.states[L_.leak].excitation_min = hp::kStoppedBelowHz;
+  }
   for (std::size_t f = 0; f < hp::kNumFactors; ++f) {
     if (L_.factor[f] == hp::kNone) continue;
     const hp::FactorInfo& info = hp::factor_info()[f];
@@ -291,23 +303,6 @@ ModelLayout HeatPumpR32::make_layout() const {
   }
   set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
       "discharge-line enthalpy: the condenser inlet");
-
-  // At rest the refrigerant circuit is not observable: the valve shut, the low side evaporates
-  // to vapour whose mass its pressure and temperature give, but the high side stays two-phase at
-  // the saturation pressure of its temperature whatever it holds, and the walls follow the air.
-  // Updated on the standing unit's innovations, the filter moved refrigerant between cells and
-  // sides to fit sensors that do not see it: leak_bench (c)'s charge ran from 0.528 kg to its
-  // 0.600 kg bound in an hour of a night stop (truth 0.495); with the charge held, the high
-  // side's mass wandered by 40 g, the evaporator heat flow by 3 kW around the truth's zero, and
-  // predictions failed. So while the compressor stands every state of the circuit is predicted,
-  // not updated (est::StatePhases; the closures above likewise), its sigma growing with its
-  // process noise; the measurements still update the zone, and the circuit's first updates after
-  // the start correct it.
-  for (std::size_t i = 0; i < L_.size; ++i) {
-    if (i == L_.t_air || i == L_.t_mass || i == L_.q_int) continue;
-    l.states[i].excited_by = static_cast<int>(hp::kCompressorSpeed);
-    l.states[i].excitation_min = hp::kStoppedBelowHz;
-  }
 
   // Beyond the bounds: each side keeps some refrigerant (a side without refrigerant has no
   // pressure: the low side's 0.75 L of vapour at the table's lowest pressure hold about 2 g; a
