@@ -276,18 +276,6 @@ ModelLayout HeatPumpR32::make_layout() const {
   if (L_.leak != hp::kNone)
     set(L_.leak, "leak_rate", "g/h", -50.0, 1000.0, 2.0, 1e-3, 1e-6, true,
         "refrigerant leak rate (random walk; negative: no loss seen)");
-  // At rest the charge is not observable: the valve shut, the low side evaporates to vapour
-  // whose mass its pressure and temperature give, but the high side stays two-phase, its
-  // pressure the saturation pressure of its temperature whatever it holds. An update then moves
-  // the charge on the standing unit's innovations (leak_bench (c), the night stop: 0.528 ->
-  // 0.600 kg, its bound, in an hour; truth 0.495). Both are held while the compressor stands,
-  // their sigma growing with their random walks; a loss at rest shows at the next start.
-  l.states[L_.charge].excited_by = static_cast<int>(hp::kCompressorSpeed);
-  l.states[L_.charge].excitation_min = hp::kStoppedBelowHz;
-  if (L_.leak != hp::kNone) {
-    l.states[L_.leak].excited_by = static_cast<int>(hp::kCompressorSpeed);
-    l.states[L_.leak].excitation_min = hp::kStoppedBelowHz;
-  }
   for (std::size_t f = 0; f < hp::kNumFactors; ++f) {
     if (L_.factor[f] == hp::kNone) continue;
     const hp::FactorInfo& info = hp::factor_info()[f];

@@ -109,8 +109,8 @@ struct LeakRunResult {
   double referred_mae = 0.0, referred_max = 0.0;
   double truth_loss_kg = 0.0, est_loss_kg = 0.0;
   // Largest departure of the charge estimate within a stop from its value at the stop carried
-  // on by the leak-rate estimate then: what holding both at rest gives (the charge is not
-  // observable at rest) [kg].
+  // on by the leak-rate estimate then: how far the updates move the charge at rest, where no
+  // sensor sees it (the high side two-phase at its temperature's saturation pressure) [kg].
   double stopped_drift_max = 0.0;
   double leak_est_mean = 0.0;  // mean leak-rate estimate while judgeable after the leak start
   double leak_sigma_mean = 0.0;
