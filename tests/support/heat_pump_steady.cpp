@@ -158,9 +158,12 @@ SteadyAnswer continuous_steady(const plant::ParameterMap& params, const Operatin
   const auto coil = [&](const CoilParams& cp, bool condenser, double t_air) {
     const AirSide air = air_side(cp, 1.0, P.fan_ua_exponent, 1);
     const double ua = P.factor[condenser ? kCondUa : kEvapUa];
-    return Coil{cp, plant::HeatPumpR32::profile_options(P, condenser, 1),
-                air.capacity_rate * (1.0 - std::exp(-air.ntu * ua)), t_air + kKelvin,
-                P.factor[condenser ? kCondHtc : kEvapHtc], P.factor[kVoidExponent]};
+    return Coil{cp,
+                plant::HeatPumpR32::profile_options(P, condenser, 1),
+                air.capacity_rate * (1.0 - std::exp(-air.ntu * ua)),
+                t_air + kKelvin,
+                P.factor[condenser ? kCondHtc : kEvapHtc],
+                P.factor[kVoidExponent]};
   };
   const Coil cond = coil(P.cond, true, op.t_out), evap = coil(P.evap, false, op.t_zone);
 
@@ -179,8 +182,7 @@ SteadyAnswer continuous_steady(const plant::ParameterMap& params, const Operatin
     const double dpc = P.cond.dp_nominal * drop, dpe = P.evap.dp_nominal * drop;
     const CoilResult c = integrate(cond, pc, dpc, comp.h_dis, comp.mdot, steps);
     const auto ll = r32::smooth_ph(pc - dpc, c.h_out, P.smoothing_width);
-    const double mv =
-        P.factor[kValve] * valve_flow(P, op.valve, ll.rho, (pc - dpc) - (pe + dpe));
+    const double mv = P.factor[kValve] * valve_flow(P, op.valve, ll.rho, (pc - dpc) - (pe + dpe));
     const CoilResult e = integrate(evap, pe + dpe, dpe, c.h_out, comp.mdot, steps);
     const double dl = r32::smooth_ph(pc, comp.h_dis, P.smoothing_width).rho;
     const double mass = c.mass + e.mass + P.discharge_line_volume * dl +
