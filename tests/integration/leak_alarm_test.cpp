@@ -115,7 +115,7 @@ TEST_CASE("a leaking unit raises LEAK on the leak topic, end to end", "[integrat
   const double logged_reference = std::stod((*m)[1]);
   // At the charge's level, not something else fed in (0, a rate in g/h): within 15 % of the
   // nameplate. The raw charge estimate is off by up to 11 % in leak_bench's long runs, more while
-  // it converges; a fresh-clone CI run logged 0.5621 kg here (passing runs 0.50-0.54).
+  // it converges; a fresh-clone CI run logged 0.5621 kg here.
   CHECK(logged_reference == Approx(0.5).margin(0.075));
   if (with_reference > 0) CHECK(reference_seen == Approx(logged_reference).margin(1e-4));
   CHECK(l.hold == dds::LeakHold::kNone);
