@@ -3,6 +3,7 @@
 // never as ok polls (issue 17: modbus_polls_ok rose while every point was DEVICE_EXCEPTION).
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -58,7 +59,10 @@ TEST_CASE("pipeline: polls answered busy are exception polls on the health topic
   const config::Config cfg = pipeline_config(server.port(), state);
   REQUIRE(cfg.units[0].points.size() == 3);
   dds::Participant participant(cfg.dds);
-  runtime::UnitPipeline pipeline(cfg, 0, participant, runtime::make_logger("error"));
+  // Destroyed before the state directory is removed: its checkpoint writer thread may be saving.
+  auto owned = std::make_unique<runtime::UnitPipeline>(cfg, 0, participant,
+                                                       runtime::make_logger("error"));
+  runtime::UnitPipeline& pipeline = *owned;
   dds::Participant reader_side(cfg.dds);  // over the wire (loopback), as a dashboard reads it
   dds::Subscriber reader(reader_side, cfg.dds.topic_prefix,
                          dds::TopicSet{false, true, true, false, false});
@@ -103,8 +107,9 @@ TEST_CASE("pipeline: polls answered busy are exception polls on the health topic
   // Two more ok polls once the device answers again.
   REQUIRE(run_until(
       [&](const dds::HealthRecord& h) { return h.modbus_polls_ok >= ok_while_busy + 2; }));
-  pipeline.stop();
-  std::filesystem::remove_all(state);
+  owned.reset();  // joins the checkpoint writer
+  std::error_code ec;
+  std::filesystem::remove_all(state, ec);
 
   const dds::HealthRecord& after = health.back();
   INFO("polls ok " << before.modbus_polls_ok << " -> " << after.modbus_polls_ok << ", exception "
