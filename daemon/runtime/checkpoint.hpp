@@ -54,6 +54,10 @@ inline constexpr std::size_t kCheckpointMaxStates = 1024;
 inline constexpr std::size_t kCheckpointMaxText = 65536;       // fingerprint, unit id [bytes]
 inline constexpr std::size_t kCheckpointMaxLeakBlock = 65536;  // [doubles]
 
+// FilterSnapshot::flags: the filter was still converging (flag cold_start) when saved, so the
+// resumed one is too until it converges.
+inline constexpr std::uint32_t kSnapshotConverging = 1u << 0;
+
 // Everything a restarted daemon needs to continue one unit's estimate. Plain data; the runtime
 // keeps one, sized at start-up, and refills it in place (no allocation once sized).
 struct FilterSnapshot {
@@ -66,7 +70,7 @@ struct FilterSnapshot {
   std::vector<double> P;          // n x n covariance, row-major
   est::EstimatorCounters counters;
   std::vector<double> leak_detector;  // the leak detector's own saved state, stored verbatim
-  std::uint32_t flags = 0;            // reserved, stored verbatim
+  std::uint32_t flags = 0;            // kSnapshot* bits; others reserved, stored verbatim
 };
 
 // "<model type>:<state name>,<state name>,...": a checkpoint of another model, another cell

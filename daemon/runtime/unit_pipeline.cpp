@@ -243,12 +243,15 @@ void UnitPipeline::initialize() {
   model_time_s_ = 0.0;
   initialized_ = true;
   have_prev_ = false;
-  cold_start_ = !(checkpoints_ && resume_from_checkpoint());
-  if (cold_start_) {
+  bool converging = false;  // the checkpoint was saved while converging
+  if (!(checkpoints_ && resume_from_checkpoint(converging))) {
+    cold_start_ = true;
     log_->info("unit {}: estimator started{}", unit_.id,
                guessed_ ? " from the model's guess at the measured conditions" : "");
   } else {
     // A resumed filter has its parameters: no settling hold, only the excitation holds.
+    cold_start_ = converging;
+    converged_updates_ = 0;
     phases_ = phases_resumed_.get();
     phases_->apply(*filter_, 0.0);
   }

@@ -108,7 +108,8 @@ class UnitPipeline {
                std::uint32_t flags, bool estimates_valid);
   void bind_leak_detection(const config::LeakDetectionConfig& c);
   void open_checkpoints(const std::string& state_directory);
-  bool resume_from_checkpoint();  // true: restored; false: cold start (reason logged)
+  // true: restored, `converging` what the checkpoint says; false: cold start (reason logged).
+  bool resume_from_checkpoint(bool& converging);
   void save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle);
   void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
   // The leak detector's state and learnt reference charges, for the log.
@@ -205,8 +206,8 @@ class UnitPipeline {
   std::uint64_t cycles_since_checkpoint_ = 0;
   // Flag cold_start: the filter started (or restarted) from the measured conditions and has not
   // converged yet. Cleared once the settling hold is over and every available point was fused
-  // (or is a reported fault) kConvergedAfterUpdates updates in a row; a resume from a
-  // checkpoint never sets it.
+  // (or is a reported fault) kConvergedAfterUpdates updates in a row. A resume from a
+  // checkpoint keeps what was saved (kSnapshotConverging).
   bool cold_start_ = true;
   int converged_updates_ = 0;  // in a row
   static constexpr int kConvergedAfterUpdates = 12;

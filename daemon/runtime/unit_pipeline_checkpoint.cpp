@@ -30,7 +30,7 @@ void UnitPipeline::open_checkpoints(const std::string& state_directory) {
   checkpoint_writer_ = std::make_unique<CheckpointWriter>(*checkpoints_, snapshot_, log_, unit_.id);
 }
 
-bool UnitPipeline::resume_from_checkpoint() {
+bool UnitPipeline::resume_from_checkpoint(bool& converging) {
   const LoadResult r = checkpoints_->load(realtime_ns());
   if (r.outcome != LoadOutcome::kLoaded) {
     const auto level =
@@ -55,10 +55,12 @@ bool UnitPipeline::resume_from_checkpoint() {
     references_logged_ = leak_->report().reference_learned;
   }
   model_time_s_ = s.model_time_s;
+  converging = (s.flags & kSnapshotConverging) != 0;
   const double age_s = static_cast<double>(realtime_ns() - s.wall_time_ns) * 1e-9;
   const auto charge = model_->layout().state("charge");
-  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{})", unit_.id,
+  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{}{})", unit_.id,
              checkpoints_->path(), s.cycle, age_s,
+             converging ? ", still converging: flag cold_start" : "",
              charge ? fmt::format(", charge {:.4f} kg", s.x[*charge]) : std::string(),
              leak_ ? "; leak detector " + describe_leak_detector() : std::string());
   return true;
@@ -77,6 +79,7 @@ void UnitPipeline::save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle) {
   snapshot_.cycle = cycle;
   snapshot_.model_time_s = model_time_s_;
   snapshot_.wall_time_ns = stamp_ns;
+  snapshot_.flags = cold_start_ ? kSnapshotConverging : 0;
   if (leak_)
     leak_->save_state(std::span<double, est::LeakDetector::kStateSize>(
         snapshot_.leak_detector.data(), est::LeakDetector::kStateSize));

@@ -60,8 +60,8 @@ TEST_CASE("pipeline: polls answered busy are exception polls on the health topic
   REQUIRE(cfg.units[0].points.size() == 3);
   dds::Participant participant(cfg.dds);
   // Destroyed before the state directory is removed: its checkpoint writer thread may be saving.
-  auto owned = std::make_unique<runtime::UnitPipeline>(cfg, 0, participant,
-                                                       runtime::make_logger("error"));
+  auto owned =
+      std::make_unique<runtime::UnitPipeline>(cfg, 0, participant, runtime::make_logger("error"));
   runtime::UnitPipeline& pipeline = *owned;
   dds::Participant reader_side(cfg.dds);  // over the wire (loopback), as a dashboard reads it
   dds::Subscriber reader(reader_side, cfg.dds.topic_prefix,

@@ -46,6 +46,13 @@ struct Seen {
   std::optional<dds::LeakDiagnosticRecord> first_leak;
 };
 
+runtime::DecodedCheckpoint read_checkpoint(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(file)), {});
+  return runtime::decode_checkpoint(
+      std::as_bytes(std::span<const char>(bytes.data(), bytes.size())));
+}
+
 void watch(dds::Subscriber& sub, Seen& seen, std::chrono::milliseconds how_long) {
   const auto end = std::chrono::steady_clock::now() + how_long;
   std::vector<dds::Record> got;
@@ -108,6 +115,10 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   CHECK(own_sigma(*before.charge) < 0.5 * initial_sigma);
   const std::string ckpt = stack.path("state/hp1.ckpt");
   REQUIRE(std::filesystem::exists(ckpt));
+  // Whether the filter was still converging (flag cold_start) when the checkpoint was saved.
+  const auto saved = read_checkpoint(ckpt);
+  REQUIRE(saved.ok());
+  const bool saved_converging = (saved.snapshot.flags & runtime::kSnapshotConverging) != 0;
 
   // Second run, same state directory: resumes.
   std::vector<dds::Record> drain;
@@ -126,7 +137,10 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   CHECK_THAT(second_log, !Catch::Contains("learnt its reference charges"));
   REQUIRE(after.first_charge.has_value());
   REQUIRE(after.leak.has_value());
-  CHECK((after.first_charge->flags & dds::kFlagColdStart) == 0);
+  // A resume keeps the flag as saved: a filter saved while converging is still converging.
+  CHECK(((after.first_charge->flags & dds::kFlagColdStart) != 0) == saved_converging);
+  CHECK((second_log.find("still converging: flag cold_start") != std::string::npos) ==
+        saved_converging);
   // The charge continues: the same estimate (within what the last few cycles moved it) with the
   // small sigma it had, not the cold-start sigma.
   CHECK(after.first_charge->value == Approx(before.charge->value).margin(0.01));
@@ -134,6 +148,34 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   // The leak evidence continues: no second warm-up, decisions counted on from the checkpoint.
   CHECK(after.first_leak->decisions >= before.leak->decisions - 1);  // at most 4 cycles lost
   CHECK(after.first_leak->hold != dds::LeakHold::kWarmUp);
+  stack.daemon().signal(SIGKILL);
+  REQUIRE(stack.daemon().wait(5s).has_value());
+
+  // The other case, whichever the run above saved: the checkpoint rewritten with the flag
+  // flipped (flags and checksum) resumes with the flag flipped.
+  {
+    const auto decoded = read_checkpoint(ckpt);
+    REQUIRE(decoded.ok());
+    REQUIRE(((decoded.snapshot.flags & runtime::kSnapshotConverging) != 0) == saved_converging);
+    runtime::FilterSnapshot flipped = decoded.snapshot;
+    flipped.flags ^= runtime::kSnapshotConverging;
+    std::vector<std::byte> out(runtime::checkpoint_size(flipped));
+    REQUIRE(runtime::encode_checkpoint(flipped, out) == out.size());
+    std::ofstream(ckpt, std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+  }
+  reader.take(drain);
+  const std::size_t second_run_bytes = stack.daemon().err().size();
+  stack.start_daemon();
+  Seen flipped;
+  watch(reader, flipped, 3s);
+  const std::string flipped_log = stack.daemon().err().substr(second_run_bytes);
+  INFO("run from the flipped checkpoint:\n" << flipped_log);
+  REQUIRE(flipped.first_charge.has_value());
+  CHECK(((flipped.first_charge->flags & dds::kFlagColdStart) != 0) == !saved_converging);
+  CHECK((flipped_log.find("still converging: flag cold_start") != std::string::npos) ==
+        !saved_converging);
+  CHECK(own_sigma(*flipped.first_charge) < 0.5 * initial_sigma);  // resumed all the same
   stack.daemon().signal(SIGKILL);
   REQUIRE(stack.daemon().wait(5s).has_value());
 
@@ -193,10 +235,7 @@ TEST_CASE("fsync failing with EIO keeps the daemon running and the previous chec
       [&] { return stack.daemon().err().find("resumed from checkpoint") != std::string::npos; },
       20s));
   // It resumes from what is on disk: the checkpoint written before the failures began.
-  std::ifstream file(ckpt, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(file)), {});
-  const auto decoded =
-      runtime::decode_checkpoint(std::as_bytes(std::span<const char>(bytes.data(), bytes.size())));
+  const auto decoded = read_checkpoint(ckpt);
   REQUIRE(decoded.ok());
   CHECK_THAT(stack.daemon().err(),
              Catch::Contains("(cycle " + std::to_string(decoded.snapshot.cycle) + ","));
