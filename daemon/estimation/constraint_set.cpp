@@ -28,7 +28,7 @@ ConstraintSet::ConstraintSet(const plant::ModelLayout& layout) {
   static_rows_ = fixed.size();
   for (const auto& c : layout.constraints) {
     if (c.over != plant::LinearConstraint::Over::kOutputs) continue;
-    outputs_.push_back({c.terms, c.bound});
+    outputs_.push_back({c.terms, c.bound, c.while_input, c.while_above, true});
     names_.push_back(c.name);
   }
   const auto total = static_cast<Eigen::Index>(rows());
@@ -44,11 +44,27 @@ ConstraintSet::ConstraintSet(const plant::ModelLayout& layout) {
     scale_(r) = 1.0 + std::abs(b_(r));
 }
 
+void ConstraintSet::set_inputs(std::span<const double> u) {
+  for (auto& row : outputs_) {
+    const auto i = static_cast<std::size_t>(row.while_input);
+    row.on = row.while_input < 0 || i >= u.size() || u[i] >= row.while_above;
+  }
+}
+
+bool ConstraintSet::on(int row) const {
+  const auto r = static_cast<std::size_t>(row);
+  return r < static_rows_ || outputs_[r - static_rows_].on;
+}
+
 void ConstraintSet::linearise_outputs(const Eigen::VectorXd& x_ref, const Eigen::VectorXd& y,
                                       const Eigen::MatrixXd& H) {
   for (std::size_t k = 0; k < outputs_.size(); ++k) {
     const auto r = static_cast<Eigen::Index>(static_rows_ + k);
     A_.row(r).setZero();
+    if (!outputs_[k].on) {
+      b_(r) = 0.0;  // off: 0 <= 0
+      continue;
+    }
     double g = 0.0;
     for (const auto& [o, coeff] : outputs_[k].terms) {
       A_.row(r) += coeff * H.row(static_cast<Eigen::Index>(o));
@@ -62,6 +78,7 @@ double ConstraintSet::output_violation(std::span<const double> y, int* row) cons
   double worst = -1.0;
   if (row != nullptr) *row = -1;
   for (std::size_t k = 0; k < outputs_.size(); ++k) {
+    if (!outputs_[k].on) continue;
     double g = 0.0;
     for (const auto& [o, coeff] : outputs_[k].terms)
       g += coeff * y[o];

@@ -30,19 +30,28 @@ class ConstraintSet {
     return names_[static_cast<std::size_t>(row)];
   }
 
+  // The inputs over the coming period: an output row whose condition of operation
+  // (LinearConstraint::while_input) they do not meet is off, 0 <= 0, until they do. Empty: every
+  // row on. No allocation.
+  void set_inputs(std::span<const double> u);
+  [[nodiscard]] bool on(int row) const;
+
   // The output rows linearised at x_ref, where the outputs are y with Jacobian H (m x n):
   // g(x) ~ g(x_ref) + G (x - x_ref) <= bound.
   void linearise_outputs(const Eigen::VectorXd& x_ref, const Eigen::VectorXd& y,
                          const Eigen::MatrixXd& H);
 
-  // The largest scaled violation of the output constraints by outputs y (<= 0: satisfied), and
-  // the row of that constraint (-1 if the model has no output constraint).
+  // The largest scaled violation of the output constraints on by outputs y (<= 0: satisfied),
+  // and the row of that constraint (-1 if the model has no output constraint on).
   [[nodiscard]] double output_violation(std::span<const double> y, int* row = nullptr) const;
 
  private:
   struct OutputRow {
     std::vector<std::pair<std::size_t, double>> terms;
     double bound = 0.0;
+    int while_input = -1;
+    double while_above = 0.0;
+    bool on = true;
   };
   std::size_t static_rows_ = 0;
   std::vector<OutputRow> outputs_;

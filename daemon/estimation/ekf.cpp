@@ -83,13 +83,32 @@ void Ekf::apply_constraints() {
   P_free_ = P_;
   A_free_ = c.A();
   b_free_ = c.b();
+  bool any_consider = false;
   for (std::size_t i = 0; i < n_; ++i) {
     if (consider_[i] == 0) continue;
+    any_consider = true;
     const auto k = static_cast<Eigen::Index>(i);
     P_free_.row(k).setZero();
     P_free_.col(k).setZero();
     b_free_ -= A_free_.col(k) * x_(k);
     A_free_.col(k).setZero();
+  }
+  // A row the estimated states can barely move (its variance almost all in consider states: a
+  // bound on a held state, an output the held states set) is not this update's to enforce.
+  // Projected anyway, it moved what little it could by any amount: a pressure constraint the
+  // held refrigerant circuit violated at rest drove the zone air temperature to -1e29 K.
+  if (any_consider) {
+    for (Eigen::Index r = 0; r < static_cast<Eigen::Index>(c.rows()); ++r) {
+      if (A_free_.row(r) == c.A().row(r)) continue;  // no consider term
+      row_ = c.A().row(r).transpose();
+      work_.noalias() = P_ * row_;
+      const double full = row_.dot(work_);
+      row_ = A_free_.row(r).transpose();
+      work_.noalias() = P_free_ * row_;
+      if (row_.dot(work_) > kMinFreeShare * full) continue;
+      A_free_.row(r).setZero();
+      b_free_(r) = std::max(b_free_(r), 0.0);  // off: 0 <= b
+    }
   }
   const ProjectionResult result =
       projection_->solve(x_, P_free_, A_free_, b_free_, c.scale(), c.rows());
@@ -216,7 +235,10 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     ++counters_.fused;
   }
   if (reset) retest_held(z, reports, count);
-  if (projection_) apply_constraints();
+  if (projection_) {
+    constraints_->set_inputs(u);
+    apply_constraints();
+  }
   return finish_step();
 }
 

@@ -156,6 +156,9 @@ class Ekf final : public Estimator {
   // constraints with their terms moved to the bounds.
   Eigen::MatrixXd P_free_, A_free_;
   Eigen::VectorXd b_free_;
+  // A row whose variance in the estimated states is below this share of its whole variance is
+  // left out of the projection (apply_constraints).
+  static constexpr double kMinFreeShare = 1e-6;
   std::unique_ptr<ConstrainedProjection> projection_;
   std::vector<int> active_;
   std::size_t active_count_ = 0;

@@ -289,6 +289,7 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
 
 void ConstrainedEnkf::constrain(std::span<const double> u) {
   active_count_ = 0;
+  constraints_.set_inputs(u);
   // State constraints: each member projected in the metric diag(P).
   metric_.setZero();
   for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(n_); ++i)

@@ -87,6 +87,12 @@ struct LinearConstraint {
   Over over = Over::kStates;
   std::vector<std::pair<std::size_t, double>> terms;  // (index, coefficient)
   double bound = 0.0;
+  // A condition of operation (output constraints only): the constraint holds only while input
+  // `while_input` is at least `while_above` (-1: always). The heat pump's condenser is above its
+  // evaporator only while the compressor runs; at rest the pressures equalise through the valve,
+  // or, the valve shut, each side's follows its own coldest air.
+  int while_input = -1;
+  double while_above = 0.0;
 };
 
 struct ModelLayout {

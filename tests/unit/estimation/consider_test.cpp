@@ -138,3 +138,51 @@ TEST_CASE("the constrained EKF projects onto a bound with the consider states he
   CHECK(ekf.covariance()(0, 0) > 0.0);
   CHECK(ekf.covariance()(0, 0) < P0[0]);
 }
+
+namespace {
+
+// The constrained EKF on test::ConstrainedOutput after one update of y0 = x to `value` (prior
+// x ~ N(0, px), b = b0 with variance pb), with the speed `speed`.
+Eigen::VectorXd constrained_update(const test::ConstrainedOutput& m, double b0, double value,
+                                   double speed) {
+  const plant::AdModel<test::ConstrainedOutput> model(m);
+  est::EkfOptions o;
+  o.constrained = true;
+  est::Ekf ekf(model, std::vector<double>{0.0, 0.0}, 1, o);
+  ekf.reset(std::vector<double>{0.0, b0}, std::vector<double>{std::sqrt(px), std::sqrt(pb)});
+  std::vector<est::Measurement> measured{{0, value, r, true}};
+  std::vector<est::MeasurementReport> reports(1);
+  const std::vector<double> u{speed};
+  ekf.update(measured, u, reports);
+  return ekf.state();
+}
+
+}  // namespace
+
+TEST_CASE("an output constraint with a condition of operation holds only while it is met",
+          "[consider][ekf][constraints]") {
+  test::ConstrainedOutput m;
+  m.conditional = true;  // y1 = x + b <= 1 while the speed is at least 5
+  const double unconstrained = px / (px + r) * z;
+  REQUIRE(unconstrained > 1.0);
+  CHECK(constrained_update(m, 0.0, z, 10.0)(0) == Approx(1.0));           // running: projected
+  CHECK(constrained_update(m, 0.0, z, 0.0)(0) == Approx(unconstrained));  // at rest: off
+  m.conditional = false;
+  CHECK(constrained_update(m, 0.0, z, 0.0)(0) == Approx(1.0));
+}
+
+TEST_CASE("a constraint the consider states violate does not throw the estimated states away",
+          "[consider][ekf][constraints]") {
+  // y1 = 1e-9 x + b <= 0 with the consider state b at 1: only x can move, by 1e9 to meet it.
+  // (The heat pump at rest, its circuit held: a pressure constraint it violated drove the zone
+  // air temperature, which the pressures barely depend on, to -1e29.)
+  test::ConstrainedOutput m;
+  m.coupling = 1e-9;
+  m.bound = 0.0;
+  const Eigen::VectorXd x = constrained_update(m, 1.0, 0.5, 10.0);
+  CHECK(x(0) == Approx(px / (px + r) * 0.5));  // the update's own value, unprojected
+  CHECK(x(1) == 1.0);
+  // Where the estimated state can meet it at a fair share of the row's variance, it does.
+  m.coupling = 1.0;
+  CHECK(constrained_update(m, 1.0, 0.5, 10.0)(0) == Approx(-1.0));
+}

@@ -81,4 +81,39 @@ struct OffsetSensor {
   }
 };
 
+// A measured x and a consider state b, x' = b' = 0, input "speed"; y0 = x is measured, and the
+// output constraint y1 = coupling x + b <= bound holds while speed >= 5 (always, unless
+// `conditional`).
+struct ConstrainedOutput {
+  double coupling = 1.0, bound = 1.0;
+  bool conditional = false;
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l;
+    l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
+    l.states.push_back(
+        plant::StateInfo{.name = "b", .unit = "1", .abs_tol = 1e-10, .consider = true});
+    l.inputs.push_back(plant::SignalInfo{.name = "speed", .unit = "Hz"});
+    l.outputs.push_back(plant::SignalInfo{.name = "y0", .unit = "1"});
+    l.outputs.push_back(plant::SignalInfo{.name = "y1", .unit = "1"});
+    l.constraints.push_back(plant::LinearConstraint{.name = "y1 bounded",
+                                                    .over = plant::LinearConstraint::Over::kOutputs,
+                                                    .terms = {{1, 1.0}},
+                                                    .bound = bound,
+                                                    .while_input = conditional ? 0 : -1,
+                                                    .while_above = 5.0});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S>, std::span<const double>, std::span<S> f) const {
+    f[0] = f[1] = S(0.0);
+    return plant::kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0];
+    y[1] = coupling * x[0] + x[1];
+    return plant::kModelOk;
+  }
+};
+
 }  // namespace hvac_twin::test
