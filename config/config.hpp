@@ -110,6 +110,10 @@ struct EstimatorConfig {
   double parameter_hold_s = 600.0;
   int checkpoint_every_cycles = 60;  // the whole filter state is saved to state_directory every
                                      // this many cycles; 0: never (always a cold start)
+  // A checkpoint written longer ago than this resumes only the unit's properties (the model's
+  // persistent states: charge, leak rate, fouling) with their covariance; the operating state
+  // is re-settled from the measured conditions, converging again. 0: any age resumes whole [s].
+  double checkpoint_max_age_s = 900.0;
   // The consistency monitor's window (mean NIS against its chi-square band) [s, model time]:
   // round(consistency_window_s / period_s) cycles, at least 30; that ratio at most 100000.
   double consistency_window_s = 3600.0;

@@ -180,6 +180,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.integer("ensemble_members", e.ensemble_members, 4, 1000);
   r.integer("threads", e.threads, 1, 64);
   r.integer("checkpoint_every_cycles", e.checkpoint_every_cycles, 0, 1'000'000);
+  r.number("checkpoint_max_age_s", e.checkpoint_max_age_s, closed(0.0, 3.2e7), false, "s");
   const bool window_ok = r.number("consistency_window_s", e.consistency_window_s,
                                   positive(30.0 * kMaxPeriodS), false, "s");
   read_leak_detection(r.get("leak_detection"), errors, e.leak_detection);

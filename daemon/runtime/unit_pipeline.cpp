@@ -243,21 +243,27 @@ void UnitPipeline::initialize() {
   model_time_s_ = 0.0;
   initialized_ = true;
   have_prev_ = false;
-  bool converging = false;  // the checkpoint was saved while converging
-  if (!(checkpoints_ && resume_from_checkpoint(converging))) {
+  const Resumed resumed = checkpoints_ ? resume_from_checkpoint() : Resumed::kNo;
+  if (resumed == Resumed::kNo) {
     cold_start_ = true;
     log_->info("unit {}: estimator started{}", unit_.id,
                guessed_ ? " from the model's guess at the measured conditions" : "");
+  } else if (resumed == Resumed::kProperties) {
+    // A cold start keeping the unit's properties: the settling hold from now (holding them).
+    cold_start_ = true;
+    converged_updates_ = 0;
+    phases_from_s_ = model_time_s_;
+    phases_->apply(*filter_, 0.0);
   } else {
     // A resumed filter has its parameters: no settling hold, only the excitation holds.
-    cold_start_ = converging;
+    cold_start_ = resumed == Resumed::kConverging;
     converged_updates_ = 0;
     phases_ = phases_resumed_.get();
     phases_->apply(*filter_, 0.0);
   }
 }
 
-void UnitPipeline::start_from_measurements(double model_time_s) {
+void UnitPipeline::start_from_measurements(double model_time_s, const FilterSnapshot* keep) {
   std::fill(guess_y_.begin(), guess_y_.end(), std::numeric_limits<double>::quiet_NaN());
   for (const auto& b : measured_) {
     const auto& s = samples_[b.point];
@@ -265,8 +271,11 @@ void UnitPipeline::start_from_measurements(double model_time_s) {
     if (s.quality == modbus::PointQuality::kGood && usable(v, b.min, b.max)) guess_y_[b.output] = v;
   }
   guessed_ = model_->initial_guess(u_, guess_y_, guess_x_);
-  for (std::size_t i = 0; i < guess_x_.size(); ++i)
+  const auto& states = model_->layout().states;
+  for (std::size_t i = 0; i < guess_x_.size(); ++i) {
     if (!guessed_ || configured_x0_[i]) guess_x_[i] = x0_[i];
+    if (keep != nullptr && states[i].persistent) guess_x_[i] = keep->x[i];
+  }
   if (unit_.estimator.settle_s > 0.0) {
     std::string error;
     if (!plant::settle(*model_, u_, unit_.estimator.settle_s, guess_x_, &error))

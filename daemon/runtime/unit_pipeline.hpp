@@ -108,8 +108,15 @@ class UnitPipeline {
                std::uint32_t flags, bool estimates_valid);
   void bind_leak_detection(const config::LeakDetectionConfig& c);
   void open_checkpoints(const std::string& state_directory);
-  // true: restored, `converging` what the checkpoint says; false: cold start (reason logged).
-  bool resume_from_checkpoint(bool& converging);
+  enum class Resumed : std::uint8_t {
+    kNo,          // cold start (the reason logged)
+    kWhole,       // the whole filter state
+    kConverging,  // the whole filter state, saved while still converging
+    kProperties,  // too old: the unit's properties only, the rest re-settled (converging)
+  };
+  Resumed resume_from_checkpoint();
+  // Keeps the cold start's state and covariance but for the model's persistent states.
+  bool resume_properties(const FilterSnapshot& s);
   void save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle);
   void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
   // The leak detector's state and learnt reference charges, for the log.
@@ -144,7 +151,8 @@ class UnitPipeline {
   // The filter from the model's guess at the current measured conditions (the first cycle, and
   // a filter whose predictions kept failing), with the augmented states held for
   // estimator.parameter_hold_s from `model_time_s`.
-  void start_from_measurements(double model_time_s);
+  // `keep`: a checkpoint whose persistent states the guess takes (settled with them).
+  void start_from_measurements(double model_time_s, const FilterSnapshot* keep = nullptr);
 
   std::vector<double> x0_, std0_;
   std::vector<bool> configured_x0_;  // initial_state given by the configuration (kept as is)

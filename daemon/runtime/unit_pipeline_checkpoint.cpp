@@ -5,6 +5,7 @@
 // thread fills the snapshot; CheckpointWriter's thread writes it (the disk never delays a cycle).
 #include <filesystem>
 #include <stdexcept>
+#include <vector>
 
 #include "daemon/runtime/clock.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
@@ -30,19 +31,22 @@ void UnitPipeline::open_checkpoints(const std::string& state_directory) {
   checkpoint_writer_ = std::make_unique<CheckpointWriter>(*checkpoints_, snapshot_, log_, unit_.id);
 }
 
-bool UnitPipeline::resume_from_checkpoint(bool& converging) {
+UnitPipeline::Resumed UnitPipeline::resume_from_checkpoint() {
   const LoadResult r = checkpoints_->load(realtime_ns());
   if (r.outcome != LoadOutcome::kLoaded) {
     const auto level =
         r.outcome == LoadOutcome::kNoCheckpoint ? spdlog::level::info : spdlog::level::warn;
     log_->log(level, "unit {}: {}", unit_.id, r.describe());
-    return false;
+    return Resumed::kNo;
   }
   const FilterSnapshot& s = r.snapshot;
-  if (!filter_->restore(s.x, s.P, s.counters)) {
+  const double age_s = static_cast<double>(realtime_ns() - s.wall_time_ns) * 1e-9;
+  const double max_age_s = unit_.estimator.checkpoint_max_age_s;
+  const bool stale = max_age_s > 0.0 && age_s > max_age_s;
+  if (!(stale ? resume_properties(s) : filter_->restore(s.x, s.P, s.counters))) {
     log_->warn("unit {}: cold start: the filter refused checkpoint {} (cycle {})", unit_.id,
                checkpoints_->path(), s.cycle);
-    return false;
+    return Resumed::kNo;
   }
   if (leak_ && !leak_->restore_state(s.leak_detector)) {
     // The filter state is good: keep it; the detector alone starts over (warm-up again).
@@ -55,15 +59,48 @@ bool UnitPipeline::resume_from_checkpoint(bool& converging) {
     references_logged_ = leak_->report().reference_learned;
   }
   model_time_s_ = s.model_time_s;
-  converging = (s.flags & kSnapshotConverging) != 0;
-  const double age_s = static_cast<double>(realtime_ns() - s.wall_time_ns) * 1e-9;
+  const bool converging = (s.flags & kSnapshotConverging) != 0;
   const auto charge = model_->layout().state("charge");
-  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{}{})", unit_.id,
-             checkpoints_->path(), s.cycle, age_s,
-             converging ? ", still converging: flag cold_start" : "",
+  const std::string what =
+      stale ? fmt::format(
+                  "its unit's properties only: it is older than "
+                  "estimator.checkpoint_max_age_s {:.0f} s, so the operating state is "
+                  "re-settled from the measured conditions (flag cold_start)",
+                  max_age_s)
+            : std::string(converging ? "still converging: flag cold_start" : "");
+  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{}{}{})",
+             unit_.id, checkpoints_->path(), s.cycle, age_s, what.empty() ? "" : ", ", what,
              charge ? fmt::format(", charge {:.4f} kg", s.x[*charge]) : std::string(),
              leak_ ? "; leak detector " + describe_leak_detector() : std::string());
-  return true;
+  if (stale) return Resumed::kProperties;
+  return converging ? Resumed::kConverging : Resumed::kWhole;
+}
+
+// Start-up only (allocates): a cold start from the measured conditions settled with the
+// checkpoint's persistent states, which keep their covariance block.
+bool UnitPipeline::resume_properties(const FilterSnapshot& s) {
+  start_from_measurements(0.0, &s);
+  const auto& states = model_->layout().states;
+  const std::size_t n = states.size();
+  std::vector<double> x(n), P(n * n, 0.0);
+  const Eigen::VectorXd& x0 = filter_->state();
+  const Eigen::MatrixXd& P0 = filter_->covariance();
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto I = static_cast<Eigen::Index>(i);
+    x[i] = states[i].persistent ? s.x[i] : x0(I);
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto J = static_cast<Eigen::Index>(j);
+      const bool kept = states[i].persistent && states[j].persistent;
+      // The cold start's covariance is diagonal: no correlation across the two groups.
+      if (kept)
+        P[i * n + j] = s.P[i * n + j];
+      else if (!states[i].persistent && !states[j].persistent)
+        P[i * n + j] = P0(I, J);
+    }
+  }
+  if (filter_->restore(x, P, s.counters)) return true;
+  start_from_measurements(0.0);  // a plain cold start, without the refused values
+  return false;
 }
 
 void UnitPipeline::save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle) {

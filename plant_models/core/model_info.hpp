@@ -60,6 +60,9 @@ struct StateInfo {
   // on the innovations of whatever else the model gets wrong. -1: always estimable.
   int excited_by = -1;
   double excitation_min = 0.0;
+  // A property of the unit, not of its operating state (the refrigerant charge, the leak rate,
+  // a coil's fouling): kept from a checkpoint too old for the rest of the state to be resumed.
+  bool persistent = false;
 };
 
 struct SignalInfo {

@@ -289,6 +289,11 @@ ModelLayout HeatPumpR32::make_layout() const {
     l.states[L_.factor[f]].excited_by = static_cast<int>(hp::kCompressorSpeed);
     l.states[L_.factor[f]].excitation_min = hp::kStoppedBelowHz;
   }
+  // The unit's properties, kept across an outage longer than estimator.checkpoint_max_age_s;
+  // the refrigerant's distribution, the walls and the zone are re-settled.
+  for (std::size_t i = 0; i < L_.size; ++i)
+    l.states[i].persistent =
+        i == L_.charge || i == L_.leak || (l.states[i].augmented && i != L_.q_int);
   set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
       "discharge-line enthalpy: the condenser inlet");
 

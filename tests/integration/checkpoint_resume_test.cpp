@@ -53,6 +53,19 @@ runtime::DecodedCheckpoint read_checkpoint(const std::string& path) {
       std::as_bytes(std::span<const char>(bytes.data(), bytes.size())));
 }
 
+// Rewrites the checkpoint at `path` changed by `edit` (a valid checksum again).
+template <class Edit>
+void rewrite_checkpoint(const std::string& path, Edit edit) {
+  const auto decoded = read_checkpoint(path);
+  REQUIRE(decoded.ok());
+  runtime::FilterSnapshot s = decoded.snapshot;
+  edit(s);
+  std::vector<std::byte> out(runtime::checkpoint_size(s));
+  REQUIRE(runtime::encode_checkpoint(s, out) == out.size());
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+}
+
 void watch(dds::Subscriber& sub, Seen& seen, std::chrono::milliseconds how_long) {
   const auto end = std::chrono::steady_clock::now() + how_long;
   std::vector<dds::Record> got;
@@ -153,17 +166,10 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
 
   // The other case, whichever the run above saved: the checkpoint rewritten with the flag
   // flipped (flags and checksum) resumes with the flag flipped.
-  {
-    const auto decoded = read_checkpoint(ckpt);
-    REQUIRE(decoded.ok());
-    REQUIRE(((decoded.snapshot.flags & runtime::kSnapshotConverging) != 0) == saved_converging);
-    runtime::FilterSnapshot flipped = decoded.snapshot;
-    flipped.flags ^= runtime::kSnapshotConverging;
-    std::vector<std::byte> out(runtime::checkpoint_size(flipped));
-    REQUIRE(runtime::encode_checkpoint(flipped, out) == out.size());
-    std::ofstream(ckpt, std::ios::binary | std::ios::trunc)
-        .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
-  }
+  rewrite_checkpoint(ckpt, [&](runtime::FilterSnapshot& c) {
+    REQUIRE(((c.flags & runtime::kSnapshotConverging) != 0) == saved_converging);
+    c.flags ^= runtime::kSnapshotConverging;
+  });
   reader.take(drain);
   const std::size_t second_run_bytes = stack.daemon().err().size();
   stack.start_daemon();
@@ -176,6 +182,33 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   CHECK((flipped_log.find("still converging: flag cold_start") != std::string::npos) ==
         !saved_converging);
   CHECK(own_sigma(*flipped.first_charge) < 0.5 * initial_sigma);  // resumed all the same
+  stack.daemon().signal(SIGKILL);
+  REQUIRE(stack.daemon().wait(5s).has_value());
+
+  // A checkpoint older than estimator.checkpoint_max_age_s (900 s): written two hours ago, it
+  // resumes the unit's properties (the charge continues, with its small sigma, and the leak
+  // evidence) and re-settles the operating state, converging again.
+  double stale_charge = 0.0;
+  rewrite_checkpoint(ckpt, [&](runtime::FilterSnapshot& c) {
+    c.wall_time_ns -= 7'200'000'000'000;
+    c.flags = 0;
+    stale_charge = c.x[*plant::create_model("heat_pump_r32", {})->layout().state("charge")];
+  });
+  reader.take(drain);
+  const std::size_t flipped_run_bytes = stack.daemon().err().size();
+  stack.start_daemon();
+  Seen stale;
+  watch(reader, stale, 3s);
+  const std::string stale_log = stack.daemon().err().substr(flipped_run_bytes);
+  INFO("run from the stale checkpoint:\n" << stale_log);
+  REQUIRE(stale.first_charge.has_value());
+  REQUIRE(stale.first_leak.has_value());
+  CHECK_THAT(stale_log, Catch::Contains("its unit's properties only: it is older than "
+                                        "estimator.checkpoint_max_age_s 900 s"));
+  CHECK((stale.first_charge->flags & dds::kFlagColdStart) != 0);
+  CHECK(stale.first_charge->value == Approx(stale_charge).margin(0.01));
+  CHECK(own_sigma(*stale.first_charge) < 0.5 * initial_sigma);
+  CHECK(stale.first_leak->hold != dds::LeakHold::kWarmUp);
   stack.daemon().signal(SIGKILL);
   REQUIRE(stack.daemon().wait(5s).has_value());
 
