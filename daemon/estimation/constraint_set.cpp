@@ -51,11 +51,6 @@ void ConstraintSet::set_inputs(std::span<const double> u) {
   }
 }
 
-bool ConstraintSet::on(int row) const {
-  const auto r = static_cast<std::size_t>(row);
-  return r < static_rows_ || outputs_[r - static_rows_].on;
-}
-
 void ConstraintSet::linearise_outputs(const Eigen::VectorXd& x_ref, const Eigen::VectorXd& y,
                                       const Eigen::MatrixXd& H) {
   for (std::size_t k = 0; k < outputs_.size(); ++k) {

@@ -34,7 +34,6 @@ class ConstraintSet {
   // (LinearConstraint::while_input) they do not meet is off, 0 <= 0, until they do. Empty: every
   // row on. No allocation.
   void set_inputs(std::span<const double> u);
-  [[nodiscard]] bool on(int row) const;
 
   // The output rows linearised at x_ref, where the outputs are y with Jacobian H (m x n):
   // g(x) ~ g(x_ref) + G (x - x_ref) <= bound.
