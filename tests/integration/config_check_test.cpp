@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "tests/integration/process.hpp"
+#include "tests/support/scratch_dir.hpp"
 
 using namespace hvac_twin::test;
 using namespace std::chrono_literals;
@@ -188,10 +189,8 @@ std::vector<Case> cases() {
 
 TEST_CASE("check-config: one line per error, at its JSON pointer, and exit 78",
           "[integration][cli][config]") {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("hvac-twin-check-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const ScratchDir scratch("check");
+  const std::filesystem::path& dir = scratch.path();
   std::vector<Case> all = cases();
   all.push_back({"missing-file", "", {"(root)"}, ""});
   for (const Case& c : all) {
@@ -236,17 +235,14 @@ TEST_CASE("check-config: one line per error, at its JSON pointer, and exit 78",
     REQUIRE(daemon.wait(20s) == 78);
     CHECK_THAT(daemon.err(), Catch::Contains("not starting"));
   }
-  std::filesystem::remove_all(dir);
 }
 
 // A hostile file: a million unknown keys printed a million lines. The first 100 errors are
 // printed and one line says how many more there were, by --check-config and at start-up.
 TEST_CASE("check-config and start-up print at most 100 errors and count the rest",
           "[integration][cli][config]") {
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("hvac-twin-cap-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const ScratchDir scratch("cap");
+  const std::filesystem::path& dir = scratch.path();
   std::string keys;
   for (int k = 0; k < 1000; ++k)
     keys += "\"unknown_" + std::to_string(k) + "\": 0, ";
@@ -272,21 +268,19 @@ TEST_CASE("check-config and start-up print at most 100 errors and count the rest
   CHECK(daemon_err.size() == 101);
   CHECK_THAT(daemon_err.back(),
              Catch::Contains("900 more error(s) not shown") && Catch::Contains("not starting"));
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("check-config accepts every configuration the repository ships",
           "[integration][cli][config]") {
   // Every *.json directly in config/ (config/examples/ holds the broken ones on purpose).
   std::size_t checked = 0;
-  const auto dir = std::filesystem::temp_directory_path().string();
+  const ScratchDir dir("cc-ok");
   for (const auto& entry :
        std::filesystem::directory_iterator(std::string(HVAC_TWIN_SOURCE_DIR) + "/config")) {
     if (entry.path().extension() != ".json") continue;
     const std::string file = entry.path().string();
     INFO(file);
-    const std::string log = dir + "/hvac-twin-cc-ok-" + std::to_string(::getpid());
-    Process check(HVAC_TWIND_EXE, {"--check-config", file}, log + ".out", log + ".err");
+    Process check(HVAC_TWIND_EXE, {"--check-config", file}, dir / "out", dir / "err");
     REQUIRE(check.wait(20s) == 0);
     ++checked;
   }

@@ -36,11 +36,8 @@ struct FaultRigOptions {
 
 class FaultRig {
  public:
-  FaultRig(const std::string& name, int port, FaultRigOptions o) : o_(std::move(o)) {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("hvac-twin-fault-" + name + "-" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
+  FaultRig(const std::string& name, int port, FaultRigOptions o)
+      : dir_("fault-" + name), o_(std::move(o)) {
     write_config(port);
   }
   ~FaultRig() {
@@ -48,7 +45,7 @@ class FaultRig {
     daemon_.reset();
   }
 
-  std::string path(const std::string& file) const { return (dir_ / file).string(); }
+  std::string path(const std::string& file) const { return dir_ / file; }
   const FaultRigOptions& options() const { return o_; }
   double wall_period_s() const { return o_.period_s / o_.time_scale; }
 
@@ -91,8 +88,8 @@ class FaultRig {
     std::ofstream(path("config.json")) << c.dump(2);
   }
 
+  ScratchDir dir_;  // first: removed after the processes writing into it are gone
   FaultRigOptions o_;
-  std::filesystem::path dir_;
   std::unique_ptr<Process> daemon_, echo_;
 };
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "tests/integration/process.hpp"
+#include "tests/support/scratch_dir.hpp"
 
 namespace hvac_twin::test {
 
@@ -83,19 +84,14 @@ inline StackOptions heat_pump_stack_options(int domain) {
 
 class Stack {
  public:
-  Stack(const std::string& name, StackOptions o) : o_(o) {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("hvac-twin-it-" + name + "-" + std::to_string(::getpid()));
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
+  Stack(const std::string& name, StackOptions o) : dir_("it-" + name), o_(o) {}
   ~Stack() {
     echo_.reset();
     daemon_.reset();
     sim_.reset();
   }
 
-  std::string path(const std::string& file) const { return (dir_ / file).string(); }
+  std::string path(const std::string& file) const { return dir_ / file; }
 
   // Starts the simulator (port 0: ephemeral, learnt from its first line) and returns its port.
   int start_sim(int port = 0);
@@ -131,8 +127,8 @@ class Stack {
   void write_config(int port) const;
 
  private:
+  ScratchDir dir_;  // first: removed after the processes writing into it are gone
   StackOptions o_;
-  std::filesystem::path dir_;
   int port_ = 0;
   int sim_starts_ = 0;
   std::unique_ptr<Process> sim_, daemon_, echo_;
