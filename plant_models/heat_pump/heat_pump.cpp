@@ -297,6 +297,23 @@ ModelLayout HeatPumpR32::make_layout() const {
   set(L_.h_dl, "h_discharge_line", "kJ/kg", h_lo, h_hi, 10.0, 0.05, 1e-3, false,
       "discharge-line enthalpy: the condenser inlet");
 
+  // At rest the refrigerant circuit is not observable: the valve shut, the low side evaporates
+  // to vapour whose mass its pressure and temperature give, but the high side stays two-phase at
+  // the saturation pressure of its temperature whatever it holds, and the walls follow the air.
+  // Updated on the standing unit's innovations, the filter moved refrigerant between cells and
+  // sides to fit sensors that do not see it: in leak_bench (a)'s night stop the heat-flow
+  // estimates wandered by up to 1.6 kW around the truth's zero (mean 0.41 kW). So while the
+  // compressor stands every state of the circuit is predicted, not updated (est::StatePhases;
+  // the closures above likewise), its sigma growing with its process noise; the measurements
+  // still update the zone, and the circuit's first updates after the start correct it. (Tried
+  // before the "condenser above evaporator" constraint was conditioned on the compressor, this
+  // failed: the constraint, enforced at rest, was projected onto the zone's states alone.)
+  for (std::size_t i = 0; i < L_.size; ++i) {
+    if (i == L_.t_air || i == L_.t_mass || i == L_.q_int) continue;
+    l.states[i].excited_by = static_cast<int>(hp::kCompressorSpeed);
+    l.states[i].excitation_min = hp::kStoppedBelowHz;
+  }
+
   // Beyond the bounds: each side keeps some refrigerant (a side without refrigerant has no
   // pressure: the low side's 0.75 L of vapour at the table's lowest pressure hold about 2 g; a
   // working unit's low side holds only ~5 % of the charge, so the bound must stay well below
