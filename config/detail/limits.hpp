@@ -9,7 +9,8 @@ namespace hvac_twin::config::detail {
 
 inline constexpr std::size_t kMaxNameLength = 64;    // ids, names, topic prefix, interface
 inline constexpr std::size_t kMaxPathLength = 4096;  // state_directory (PATH_MAX)
-inline constexpr double kMaxPollPeriodS = 3600.0;    // modbus.poll_period_s
+inline constexpr double kMinPollPeriodS = 1e-3;      // modbus.poll_period_s: a device-down
+inline constexpr double kMaxPollPeriodS = 3600.0;    //   poller wakes once a period
 inline constexpr double kMaxTimeoutS = 60.0;         // response and byte timeouts
 inline constexpr double kMaxBackoffS = 3600.0;       // reconnect back-off
 inline constexpr double kMaxStaleAfterS = 86400.0;   // points[].stale_after_s

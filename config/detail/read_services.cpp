@@ -150,8 +150,8 @@ ModbusSection read_modbus(const Ref& ref, Errors& errors) {
   }
   r.integer("port", m.port, 1, 65535);
   r.integer("unit_id", m.unit_id, 0, 255);
-  const bool poll_ok =
-      r.number("poll_period_s", m.poll_period_s, closed(kMinTickS, kMaxPollPeriodS), false, "s");
+  const bool poll_ok = r.number("poll_period_s", m.poll_period_s,
+                                closed(kMinPollPeriodS, kMaxPollPeriodS), false, "s");
   const bool response_ok =
       r.number("response_timeout_s", m.response_timeout_s, positive(kMaxTimeoutS), false, "s");
   const bool byte_ok =

@@ -105,13 +105,17 @@ TEST_CASE("modbus: timeouts and back-off, and the rules between them", "[config]
   auto j = demo_json();
   modbus(j)["poll_period_s"] = 0;
   require_single_error(load_json(j), "/units/0/modbus/poll_period_s",
-                       {"expected a number in [1e-9, 3600] [s]; got 0"});
+                       {"expected a number in [0.001, 3600] [s]; got 0"});
+  // Issue 17 item 8: 1 us burnt 1.5 s of CPU per 8 s while the device was down.
+  modbus(j)["poll_period_s"] = 1e-6;
+  require_single_error(load_json(j), "/units/0/modbus/poll_period_s",
+                       {"expected a number in [0.001, 3600] [s]; got 1e-06"});
   // The poller counts its period in whole nanoseconds and divides by it: 0 ns was a crash.
   modbus(j)["poll_period_s"] = 1e-12;
   modbus(j)["response_timeout_s"] = 1e-13;
   modbus(j)["byte_timeout_s"] = 1e-14;
   require_single_error(load_json(j), "/units/0/modbus/poll_period_s",
-                       {"expected a number in [1e-9, 3600] [s]; got 1e-12"});
+                       {"expected a number in [0.001, 3600] [s]; got 1e-12"});
   j = demo_json();
   modbus(j)["response_timeout_s"] = 0.125;  // == poll_period_s / 2
   require_single_error(load_json(j), "/units/0/modbus/response_timeout_s",
