@@ -86,15 +86,31 @@ void Daemon::start() {
 void Daemon::run_unit(std::size_t index) {
   UnitPipeline& pipeline = *pipelines_[index];
   FixedRateScheduler& scheduler = *schedulers_[index];
+  RepeatLog overruns(kRepeatLogIntervalNs);
   Tick tick;
   while (scheduler.wait_next(tick)) {
     supervisor_->cycle_started(index, tick.woke_ns);
     const CycleOutcome out = pipeline.run_cycle(tick);
-    if (out.overrun)
-      log_->warn("unit {}: cycle {} overran its deadline: {:.1f} ms", pipeline.id(), tick.index,
-                 static_cast<double>(out.cycle_ns) * 1e-6);
-    supervisor_->cycle_finished(index, monotonic_ns(), out.overrun);
+    const std::int64_t now = monotonic_ns();
+    log_overruns(pipeline.id(), tick.index,
+                 overruns.observe(out.overrun, static_cast<double>(out.cycle_ns) * 1e-6, now));
+    supervisor_->cycle_finished(index, now, out.overrun);
   }
+}
+
+void Daemon::log_overruns(const std::string& unit, std::uint64_t cycle, const RepeatStep& s) const {
+  constexpr double interval_s = static_cast<double>(kRepeatLogIntervalNs) * 1e-9;
+  if (s.start)
+    log_->warn(
+        "unit {}: cycle {} overran its deadline: {:.1f} ms (further overruns are counted, one "
+        "line per {:.0f} s, until none for {:.0f} s)",
+        unit, cycle, s.worst, interval_s, interval_s);
+  else if (s.summary)
+    log_->warn("unit {}: {} more cycles overran their deadline (worst {:.1f} ms); {} so far", unit,
+               s.count, s.worst, s.total);
+  else if (s.end)
+    log_->info("unit {}: no cycle overran its deadline for {:.0f} s ({} overruns in the episode)",
+               unit, interval_s, s.total);
 }
 
 void Daemon::log_ping_change(const PingChange& c) const {

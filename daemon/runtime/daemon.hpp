@@ -6,18 +6,25 @@
 #include <spdlog/logger.h>
 
 #include <atomic>
+#include <cstdint>
 #include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "config/config.hpp"
 #include "daemon/runtime/notify.hpp"
+#include "daemon/runtime/repeat_log.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "daemon/runtime/supervisor.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
 #include "io/dds/participant.hpp"
 
 namespace hvac_twin::runtime {
+
+// A warning that would repeat every cycle (a cycle over its deadline) is logged at most once per
+// this much wall time, with a count (RepeatLog).
+inline constexpr std::int64_t kRepeatLogIntervalNs = 60'000'000'000;
 
 class Daemon {
  public:
@@ -36,6 +43,8 @@ class Daemon {
   void run_unit(std::size_t index);
   // Logs, once each, that overruns stopped the watchdog pings (warning) and that they resumed.
   void log_ping_change(const PingChange& change) const;
+  // The first overrun of an episode, a summary per kRepeatLogIntervalNs, and the episode's end.
+  void log_overruns(const std::string& unit, std::uint64_t cycle, const RepeatStep& step) const;
 
   config::Config config_;
   std::shared_ptr<spdlog::logger> log_;

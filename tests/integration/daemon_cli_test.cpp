@@ -297,4 +297,10 @@ TEST_CASE("repeated overruns degrade the estimates and stop the pings", "[integr
   CHECK(stopped == log.rfind("watchdog pings stopped"));
   CHECK_THAT(log,
              Catch::Contains("systemd restarts the service if this lasts WatchdogSec (1.000 s)"));
+  // Every cycle overran: one line says so and that the rest are counted (issue 17 item 8: one
+  // line per cycle, 12 000 a second at a 1 us period).
+  const auto first = log.find("overran its deadline: ");
+  CHECK(first != std::string::npos);
+  CHECK(first == log.rfind("overran its deadline: "));
+  CHECK_THAT(log, Catch::Contains("further overruns are counted"));
 }
