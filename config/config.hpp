@@ -38,11 +38,14 @@ struct PointConfig {
   WordOrder word_order = WordOrder::kABCD;  // JSON "ABCD"|"CDAB"|"BADC"|"DCBA"
   double scale = 1.0;                       // engineering value = raw * scale + offset; != 0
   double offset = 0.0;                      // [unit]
-  std::string unit;             // required; engineering unit of the decoded value: a name of
-                                // config/units.hpp that converts to the signal's unit
-  double range_min = 0.0;       // required; physical range [unit], min < max; outside it the point
-  double range_max = 0.0;       //   is OUT_OF_RANGE (JSON "range": [min, max])
-  double stale_after_s = 10.0;  // a GOOD value older than this is STALE [s, wall]; > poll period
+  std::string unit;              // required; engineering unit of the decoded value: a name of
+                                 // config/units.hpp that converts to the signal's unit
+  double range_min = 0.0;        // required; physical range [unit], min < max; outside it the point
+  double range_max = 0.0;        //   is OUT_OF_RANGE (JSON "range": [min, max])
+  double stale_after_s = 10.0;   // a GOOD value older than this is STALE [s, wall]; > poll period
+  double stuck_after_s = 300.0;  // measured point: a raw value unchanged this long while the
+                                 // model moved it by 4 sigma of its noise is STUCK, not fused
+                                 // [s, model]; 0: never (a signal legitimately constant)
   PointRole role = PointRole::kMeasured;
   std::string signal;  // required; the model output (measured) or model input (input/disturbance)
                        // it feeds; each model input is fed by at most one point

@@ -14,6 +14,7 @@ inline constexpr double kMaxPollPeriodS = 3600.0;    //   poller wakes once a pe
 inline constexpr double kMaxTimeoutS = 60.0;         // response and byte timeouts
 inline constexpr double kMaxBackoffS = 3600.0;       // reconnect back-off
 inline constexpr double kMaxStaleAfterS = 86400.0;   // points[].stale_after_s
+inline constexpr double kMaxStuckAfterS = 604800.0;  // points[].stuck_after_s (a week)
 inline constexpr double kMaxPeriodS = 86400.0;       // estimator.period_s (model time)
 inline constexpr double kMaxDeadlineS = 3600.0;      // estimator.deadline_s
 inline constexpr double kMinTimeScale = 1e-3;        // runtime.time_scale: period_s / time_scale

@@ -166,6 +166,7 @@ PointResult read_point(const Ref& ref, Errors& errors, const PointContext& conte
   read_range(r, p);
   const bool stale_ok =
       r.number("stale_after_s", p.stale_after_s, positive(kMaxStaleAfterS), false, "s");
+  r.number("stuck_after_s", p.stuck_after_s, closed(0.0, kMaxStuckAfterS), false, "s");
   out.role_ok = r.choice<PointRole>("role", p.role, kPointRoleNames, kPointRoles);
   out.signal = r.require("signal");
   bool signal_ok = false;

@@ -253,11 +253,11 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
     const auto o = static_cast<Eigen::Index>(mz.output);
     rep.available =
         mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
+    if (mz.output < m_) rep.predicted = y_(o);  // also for one not offered (a stuck sensor)
     if (!rep.available) continue;
     ++available;
     const double r = std::max(mz.variance, options_.min_measurement_variance);
     ph_.noalias() = P_ * H_.row(o).transpose();
-    rep.predicted = y_(o);
     rep.innovation = mz.value - y_(o);
     rep.innovation_variance = H_.row(o).dot(ph_) + r;
     rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;

@@ -224,11 +224,11 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     MeasurementReport& rep = reports[i];
     rep.available =
         mz.available && mz.output < m_ && std::isfinite(mz.value) && std::isfinite(mz.variance);
-    if (!rep.available) continue;
     const auto o = static_cast<Eigen::Index>(mz.output);
+    if (mz.output < m_) rep.predicted = ymean_(o);  // also for one not offered (a stuck sensor)
+    if (!rep.available) continue;
     const double r = std::max(mz.variance, options_.min_measurement_variance);
     const double var = (Y_.row(o).array() - ymean_(o)).square().sum() * inv;
-    rep.predicted = ymean_(o);
     rep.innovation = mz.value - ymean_(o);
     rep.innovation_variance = var + r;
     rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;

@@ -47,8 +47,9 @@ struct Measurement {
 
 // What happened to one measurement in update(); published per point.
 struct MeasurementReport {
-  double predicted = 0.0;            // h(x⁻) (the ensemble mean of h for the EnKF)
-  double innovation = 0.0;           // z - predicted
+  double predicted = 0.0;   // h(x⁻) (the ensemble mean of h for the EnKF); for every measurement
+                            // of an existing output, available or not
+  double innovation = 0.0;  // z - predicted
   double innovation_variance = 0.0;  // S = H P⁻ Hᵀ + R (ensemble variance of h + R)
   double test_ratio = 0.0;           // ν² / S
   bool available = false;

@@ -135,6 +135,7 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
     const double sigma = lookup(unit_.estimator.measurement_noise, pc.signal, 0.0);
     if (!(sigma > 0.0)) throw std::invalid_argument("no measurement noise for " + pc.signal);
     b.variance = sigma * sigma;
+    b.stuck = est::StuckMonitor(pc.stuck_after_s, est::kStuckMoveSigmas * sigma);
     measured_.push_back(b);
   }
 
@@ -214,11 +215,25 @@ void UnitPipeline::build_measurements() {
     const bool refused = good && !usable(v, b.min, b.max);
     if (good) note_refusal(b.refusing, refused, unit_.points[b.point].name, v);
     if (refused) ++guards_.measurements_refused;
+    const est::StuckStep stuck = b.stuck.observe(good, s.value, b.drift, model_time_s_);
+    note_stuck(stuck, unit_.points[b.point].name, s.value);
     z_[i] = est::Measurement{.output = b.output,
                              .value = refused ? 0.0 : v,
                              .variance = b.variance,
-                             .available = good && !refused};
+                             .available = good && !refused && !stuck.stuck};
   }
+}
+
+// Logs the start and the end of a stuck episode of one point, not every cycle.
+void UnitPipeline::note_stuck(const est::StuckStep& s, const std::string& point, double value) {
+  if (s.started) {
+    ++guards_.measurements_stuck;
+    log_->warn(
+        "unit {}: point {}: STUCK: its value {} has not changed for {:.0f} model seconds while the "
+        "model moved it by {:.3g} (model units); not used until it changes (stuck_after_s)",
+        unit_.id, point, value, s.unchanged_s, s.moved);
+  }
+  if (s.ended) log_->info("unit {}: point {}: no longer stuck", unit_.id, point);
 }
 
 // Logs the start and the end of a run of refused samples of one point, not every cycle.
@@ -397,6 +412,11 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
       build_measurements();
       const std::uint64_t resets_before = filter_->counters().covariance_resets;
       const est::StepStatus st = filter_->update(z_, u_, reports_);
+      // What the model alone did to every measured point over the period (the stuck check).
+      for (std::size_t i = 0; i < reports_.size(); ++i)
+        measured_[i].drift = st == est::StepStatus::kModelError
+                                 ? std::numeric_limits<double>::quiet_NaN()
+                                 : reports_[i].predicted - measured_[i].estimate;
       if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
       const bool covariance_reset = filter_->counters().covariance_resets != resets_before;
       if (covariance_reset) flags |= dds::kFlagNumericalReset;
@@ -415,6 +435,8 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   if (initialized_ && cold_start_) flags |= dds::kFlagColdStart;  // after a restart this cycle too
   const bool estimates_valid =
       initialized_ && filter_->output_estimates(u_, y_, sigma_, filter_sigma_) == plant::kModelOk;
+  for (auto& b : measured_)
+    b.estimate = estimates_valid ? y_[b.output] : std::numeric_limits<double>::quiet_NaN();
   if (monotonic_ns() - start > deadline_ns_) flags |= dds::kFlagDeadlineOverrun;
   out.quality = !estimates_valid ? dds::EstimateQuality::kNotReady
                 : flags & (dds::kFlagPredictOnly | dds::kFlagInputHeld | dds::kFlagNumericalReset |
@@ -476,7 +498,7 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
     publisher_->publish(dds::ObservationSample{
         .point = unit_.points[b.point].name,
         .value = s.value,
-        .quality = wire_quality(s.quality),
+        .quality = b.stuck.stuck() ? dds::PointQuality::kStuck : wire_quality(s.quality),
         .exception_code = s.exception_code,
         .predicted = tested ? predicted : 0.0,
         .innovation = tested ? s.value - predicted : 0.0,

@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "daemon/estimation/consistency_monitor.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/estimation/stuck_monitor.hpp"
 #include "daemon/estimation/track_monitor.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
 #include "daemon/runtime/checkpoint_writer.hpp"
@@ -51,6 +53,7 @@ struct FaultHooks {
 struct GuardCounters {
   std::uint64_t inputs_refused = 0;        // GOOD input samples refused, one per cycle and input
   std::uint64_t measurements_refused = 0;  // GOOD measured samples refused, per cycle and point
+  std::uint64_t measurements_stuck = 0;    // stuck episodes of measured points (StuckMonitor)
 };
 
 struct CycleOutcome {
@@ -99,11 +102,17 @@ class UnitPipeline {
     double min = 0.0, max = 0.0;  // the model output's physical range [model unit]
     double variance = 0.0;        // [model unit²]
     bool refusing = false;
+    est::StuckMonitor stuck;  // a raw value frozen while the model moves (logged per episode)
+    // The model's change of the point over the last period: the prior prediction at the last
+    // update minus the estimate of the cycle before (NaN: unknown) [model unit].
+    double drift = std::numeric_limits<double>::quiet_NaN();
+    double estimate = std::numeric_limits<double>::quiet_NaN();  // last published [model unit]
   };
 
   bool read_inputs(std::uint32_t& flags);
   void build_measurements();
   void note_refusal(bool& refusing, bool refused, const std::string& point, double value);
+  void note_stuck(const est::StuckStep& s, const std::string& point, double value);
   void publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                std::uint32_t flags, bool estimates_valid);
   void bind_leak_detection(const config::LeakDetectionConfig& c);

@@ -62,6 +62,8 @@ std::string_view to_string(PointQuality quality) noexcept {
       return "DEVICE_EXCEPTION";
     case PointQuality::kOutOfRange:
       return "OUT_OF_RANGE";
+    case PointQuality::kStuck:
+      return "STUCK";
   }
   return "UNKNOWN";
 }

@@ -53,6 +53,7 @@ enum class PointQuality : std::uint8_t {
   kCommFail = 3,
   kDeviceException = 4,
   kOutOfRange = 5,
+  kStuck = 6,  // read GOOD, but frozen while the model says it should move: not fused
 };
 
 // VirtualSensorSample::flags, provenance bits (IDL VS_FLAG_*).

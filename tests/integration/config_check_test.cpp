@@ -181,7 +181,7 @@ std::vector<Case> cases() {
                {"\"response_timeout_s\": 0.1", "\"response_timeout_s\": 1e-13"},
                {"\"byte_timeout_s\": 0.05", "\"byte_timeout_s\": 1e-14"}}),
        {"/units/0/modbus/poll_period_s"},
-       "[1e-9, 3600]"},
+       "[0.001, 3600]"},
   };
 }
 

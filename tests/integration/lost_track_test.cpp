@@ -10,7 +10,6 @@
 #include <cmath>
 #include <map>
 #include <string>
-#include <thread>
 #include <utility>
 
 #include "tests/integration/stack.hpp"
@@ -38,16 +37,7 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
   o.sim_args = {"--point", "suction_pressure=5999.9" + window, "--point",
                 "discharge_pressure=5999.9" + window};
   Stack stack("lost-track", o);
-  stack.start_sim();
-  stack.start_daemon();
-  const double wall_s = end_h * 3600.0 / o.time_scale;
-  stack.start_echo(wall_s + 10.0, {"--topics", "virtual_sensor"});
-  std::this_thread::sleep_for(std::chrono::duration<double>(wall_s));
-  stack.daemon().signal(SIGTERM);
-  const auto rc = stack.daemon().wait(10s);
-  stack.stop_sim();
-  stack.echo().signal(SIGTERM);
-  stack.echo().wait(5s);
+  const auto rc = stack.run_for(end_h, {"--topics", "virtual_sensor"});
   const std::string log = stack.daemon().err();
   INFO("daemon stderr:\n" << log);
   REQUIRE(rc == 0);

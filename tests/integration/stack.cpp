@@ -3,7 +3,10 @@
 // includes the header (each cost ~9 s of compile time per file under the sanitizers).
 #include "tests/integration/stack.hpp"
 
+#include <chrono>
+#include <csignal>
 #include <regex>
+#include <thread>
 
 namespace hvac_twin::test {
 
@@ -62,6 +65,21 @@ void Stack::start_echo(double duration_s, const std::vector<std::string>& extra_
                                 "--duration", std::to_string(duration_s)};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   echo_ = std::make_unique<Process>(HVAC_TWIN_ECHO_EXE, args, path("echo.jsonl"), path("echo.err"));
+}
+
+std::optional<int> Stack::run_for(double model_h, const std::vector<std::string>& echo_args,
+                                  std::chrono::milliseconds stop_timeout) {
+  const double wall_s = model_h * 3600.0 / o_.time_scale;
+  start_sim();
+  start_daemon();
+  start_echo(wall_s + 10.0, echo_args);
+  std::this_thread::sleep_for(std::chrono::duration<double>(wall_s));
+  daemon_->signal(SIGTERM);
+  const auto rc = daemon_->wait(stop_timeout);
+  stop_sim();
+  echo_->signal(SIGTERM);
+  echo_->wait(std::chrono::seconds(5));
+  return rc;
 }
 
 std::vector<nlohmann::json> read_json_lines(const std::string& path) {

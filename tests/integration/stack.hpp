@@ -3,6 +3,7 @@
 // Each stack gets its own directory, DDS domain and Modbus port, so tests run in parallel.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -113,6 +114,12 @@ class Stack {
                           const std::vector<std::string>& env = {});
 
   void start_echo(double duration_s, const std::vector<std::string>& extra_args = {});
+
+  // The whole run of most tests: the simulator, the daemon and the echo (with `echo_args`) for
+  // `model_h` model hours, then SIGTERM to the daemon, waited for up to `stop_timeout`, and the
+  // simulator and the echo stopped. The daemon's exit status (nullopt: it did not exit).
+  std::optional<int> run_for(double model_h, const std::vector<std::string>& echo_args = {},
+                             std::chrono::milliseconds stop_timeout = std::chrono::seconds(10));
 
   Process& sim() { return *sim_; }
   Process& daemon() { return *daemon_; }

@@ -21,6 +21,7 @@ static_assert(static_cast<int>(PointQuality::kStale) == hvac_twin_POINT_STALE);
 static_assert(static_cast<int>(PointQuality::kCommFail) == hvac_twin_POINT_COMM_FAIL);
 static_assert(static_cast<int>(PointQuality::kDeviceException) == hvac_twin_POINT_DEVICE_EXCEPTION);
 static_assert(static_cast<int>(PointQuality::kOutOfRange) == hvac_twin_POINT_OUT_OF_RANGE);
+static_assert(static_cast<int>(PointQuality::kStuck) == hvac_twin_POINT_STUCK);
 static_assert(kFlagPredictOnly == hvac_twin_VS_FLAG_PREDICT_ONLY);
 static_assert(kFlagConstraintActive == hvac_twin_VS_FLAG_CONSTRAINT_ACTIVE);
 static_assert(kFlagInputHeld == hvac_twin_VS_FLAG_INPUT_HELD);
