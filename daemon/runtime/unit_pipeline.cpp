@@ -226,13 +226,11 @@ void UnitPipeline::build_measurements() {
 
 // Logs the start and the end of a stuck episode of one point, not every cycle.
 void UnitPipeline::note_stuck(const est::StuckStep& s, const std::string& point, double value) {
-  if (s.started) {
-    ++guards_.measurements_stuck;
+  if (s.started)
     log_->warn(
         "unit {}: point {}: STUCK: its value {} has not changed for {:.0f} model seconds while the "
         "model moved it by {:.3g} (model units); not used until it changes (stuck_after_s)",
         unit_.id, point, value, s.unchanged_s, s.moved);
-  }
   if (s.ended) log_->info("unit {}: point {}: no longer stuck", unit_.id, point);
 }
 

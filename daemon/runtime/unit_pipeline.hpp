@@ -53,7 +53,6 @@ struct FaultHooks {
 struct GuardCounters {
   std::uint64_t inputs_refused = 0;        // GOOD input samples refused, one per cycle and input
   std::uint64_t measurements_refused = 0;  // GOOD measured samples refused, per cycle and point
-  std::uint64_t measurements_stuck = 0;    // stuck episodes of measured points (StuckMonitor)
 };
 
 struct CycleOutcome {
