@@ -1,55 +1,15 @@
 // The periodic path allocates nothing: predict, update and output estimates after start-up.
-#include <atomic>
 #include <catch2/catch.hpp>
-#include <cstdlib>
-#include <new>
+#include <memory>
 #include <vector>
 
 #include "daemon/estimation/ekf.hpp"
 #include "plant_models/core/ad_model.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/zone/zone_rc.hpp"
+#include "tests/support/alloc_counter.hpp"
 
-namespace {
-std::atomic<long> g_allocations{0};
-std::atomic<bool> g_counting{false};
-}  // namespace
-
-// Counting replacements of the global allocation functions (this executable only). Under
-// AddressSanitizer, which brings its own allocator, they are left out and only the count is
-// skipped (check_no_allocation).
-#if defined(__SANITIZE_ADDRESS__)
-#define HVAC_TWIN_COUNT_ALLOCATIONS 0
-#else
-#define HVAC_TWIN_COUNT_ALLOCATIONS 1
-void* operator new(std::size_t size) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-// GCC flags free() of memory from a replaced operator new as mismatched; here it is the match.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-#pragma GCC diagnostic pop
-#endif
-
-namespace {
-// The count after a counted stretch; under AddressSanitizer the code still runs (checked for
-// memory errors) but nothing is counted, which the test says instead of passing vacuously.
-void check_no_allocation() {
-  if (!HVAC_TWIN_COUNT_ALLOCATIONS) {
-    WARN("allocation count SKIPPED under AddressSanitizer (operator new is not replaced)");
-    return;
-  }
-  CHECK(g_allocations.load() == 0);
-}
-}  // namespace
+using hvac_twin::test::AllocationScope;
 
 using namespace hvac_twin;
 
@@ -62,24 +22,21 @@ TEST_CASE("an EKF cycle on the zone model makes no heap allocation", "[ekf][allo
   est::MeasurementReport rep;
   est::Measurement m{.output = 0, .value = 20.5, .variance = 0.01, .available = true};
 
-  // Sanity: the counter sees allocations at all.
-  g_counting = true;
-  auto* probe = new std::vector<int>(8);
-  g_counting = false;
-  delete probe;
-  REQUIRE((g_allocations.load() >= 1 || !HVAC_TWIN_COUNT_ALLOCATIONS));
-  g_allocations = 0;
+  {  // Sanity: the counter sees allocations at all.
+    const AllocationScope probe_scope;
+    auto probe = std::make_unique<std::vector<int>>(8);
+    REQUIRE(probe_scope.count() >= 1);
+  }
 
   ekf.predict(u, 60.0);  // warm-up
-  g_counting = true;
+  const AllocationScope scope;
   for (int k = 0; k < 50; ++k) {
     ekf.predict(u, 60.0);
     m.value = 20.5 + 0.01 * k;
     ekf.update({&m, 1}, u, {&rep, 1});
     ekf.output_estimates(u, y, sigma);
   }
-  g_counting = false;
-  check_no_allocation();
+  CHECK(scope.count() == 0);
   CHECK(ekf.counters().fused == 50);
 }
 
@@ -115,15 +72,13 @@ TEST_CASE("a constrained EKF cycle on the heat pump makes no heap allocation", "
       {.output = 1, .value = y[1] - 2e4, .variance = 225e6, .available = true}};
   std::vector<est::MeasurementReport> reps(2);
   REQUIRE(ekf.predict(u, 2.0) == est::StepStatus::kOk);  // warm-up
-  g_allocations = 0;
-  g_counting = true;
+  const AllocationScope scope;
   for (int k = 0; k < 5; ++k) {
     ekf.predict(u, 2.0);
     ekf.update(z, u, reps);
     ekf.output_estimates(u, y, sigma);
   }
-  g_counting = false;
-  check_no_allocation();
+  CHECK(scope.count() == 0);
   CHECK(ekf.counters().fused >= 5);
 }
 
@@ -155,15 +110,13 @@ TEST_CASE("a constrained EnKF cycle on the heat pump, on two threads, makes no h
       {.output = 1, .value = y[1] - 2e4, .variance = 225e6, .available = true}};
   std::vector<est::MeasurementReport> reps(2);
   REQUIRE(enkf.predict(u, 2.0) == est::StepStatus::kOk);  // warm-up
-  g_allocations = 0;
-  g_counting = true;
+  const AllocationScope scope;
   for (int k = 0; k < 3; ++k) {
     enkf.predict(u, 2.0);
     enkf.update(z, u, reps);
     enkf.output_estimates(u, y, sigma);
   }
-  g_counting = false;
-  check_no_allocation();
+  CHECK(scope.count() == 0);
   CHECK(enkf.counters().fused >= 3);
 }
 
@@ -173,8 +126,7 @@ TEST_CASE("the consistency monitor allocates nothing after construction", "[cons
   est::ConsistencyMonitor monitor(3,
                                   est::ConsistencyOptions{.window_cycles = 50, .min_samples = 5});
   std::vector<est::MeasurementReport> reps(3);
-  g_allocations = 0;
-  g_counting = true;
+  const AllocationScope scope;
   for (int k = 0; k < 400; ++k) {  // fill, evict, recompute, and a new band for every k
     for (std::size_t i = 0; i < reps.size(); ++i) {
       reps[i].available = (k + static_cast<int>(i)) % 5 != 0;
@@ -186,7 +138,6 @@ TEST_CASE("the consistency monitor allocates nothing after construction", "[cons
     else
       monitor.add(reps);
   }
-  g_counting = false;
-  check_no_allocation();
+  CHECK(scope.count() == 0);
   CHECK(monitor.overall().verdict != est::ConsistencyVerdict::kInsufficientData);
 }

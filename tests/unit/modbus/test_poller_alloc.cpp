@@ -1,61 +1,16 @@
 // The periodic path does not allocate: neither the poller thread (polls, decoding, a transport
 // error, closing and reconnecting) nor snapshot() on the caller's thread. This executable
-// replaces the global operator new with a counting one, so it is kept apart from other tests.
+// replaces the global operator new with a counting one (tests/support/alloc_counter.hpp), so it
+// is kept apart from other tests.
 #include <atomic>
 #include <catch2/catch.hpp>
-#include <cstdlib>
-#include <new>
 #include <thread>
 #include <vector>
 
 #include "io/modbus/poller.hpp"
+#include "tests/support/alloc_counter.hpp"
 #include "tests/support/modbus_test_server.hpp"
 #include "tests/unit/modbus/modbus_test_util.hpp"
-
-namespace {
-std::atomic<std::thread::id> g_watched_thread{};
-std::atomic<long> g_watched_allocations{0};
-thread_local long t_allocations = 0;
-
-void count_allocation() noexcept {
-  ++t_allocations;
-  if (std::this_thread::get_id() == g_watched_thread.load()) g_watched_allocations.fetch_add(1);
-}
-}  // namespace
-
-void* operator new(std::size_t size) {
-  count_allocation();
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) {
-  return operator new(size);
-}
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
-  count_allocation();
-  return std::malloc(size == 0 ? 1 : size);
-}
-void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept {
-  return operator new(size, tag);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, const std::nothrow_t&) noexcept {
-  std::free(p);
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t) noexcept {
-  std::free(p);
-}
 
 using namespace hvac_twin::modbus;
 using hvac_twin::config::ValueType;
@@ -71,9 +26,9 @@ TEST_CASE("poller: no allocation in the poll loop, the error path or snapshot()"
   points[1].range_max = 10;
   server.set_value(points[0], 1.5);
   server.set_value(points[1], 50);  // OUT_OF_RANGE: the event path runs too
-  Poller poller(test::fast_device(server.port()), points, [](const Event&) {
-    g_watched_thread.store(std::this_thread::get_id());  // the poller thread
-  });
+  std::atomic<std::thread::id> poller_thread{};
+  Poller poller(test::fast_device(server.port()), points,
+                [&](const Event&) { poller_thread.store(std::this_thread::get_id()); });
   poller.start();
 
   std::vector<PointSample> out(points.size());
@@ -83,9 +38,9 @@ TEST_CASE("poller: no allocation in the poll loop, the error path or snapshot()"
     return status.polls_ok;
   };
   REQUIRE(test::eventually([&] { return polls_ok() >= 2; }));
-  REQUIRE(g_watched_thread.load() != std::thread::id{});
+  REQUIRE(poller_thread.load() != std::thread::id{});
 
-  g_watched_allocations.store(0);
+  hvac_twin::test::watch_allocations_of(poller_thread.load());
   // A fault inside the measured window: transport error, COMM_FAIL, back-off, reconnect.
   server.disconnect_clients();
   REQUIRE(test::eventually([&] {
@@ -94,12 +49,12 @@ TEST_CASE("poller: no allocation in the poll loop, the error path or snapshot()"
   }));
   const std::uint64_t target = polls_ok() + 3;
   REQUIRE(test::eventually([&] { return polls_ok() >= target; }));
-  CHECK(g_watched_allocations.load() == 0);
+  CHECK(hvac_twin::test::watched_allocations() == 0);
   CHECK(status.transport_errors == 1);
 
-  const long before = t_allocations;
+  const long before = hvac_twin::test::allocations_on_this_thread();
   for (int i = 0; i < 1000; ++i)
     poller.snapshot(out, monotonic_ns(), &status);
-  CHECK(t_allocations == before);
+  CHECK(hvac_twin::test::allocations_on_this_thread() == before);
   poller.stop();
 }

@@ -1,61 +1,16 @@
 // Fast (p, h) tables of R32: accuracy against the EOS, phase boundaries, smoothness, AD
 // derivatives, out-of-range behaviour and no allocation.
 #include <array>
-#include <atomic>
 #include <catch2/catch.hpp>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 
 #include "plant_models/core/dual.hpp"
 #include "plant_models/refrigerant/r32_eos.hpp"
 #include "plant_models/refrigerant/r32_table.hpp"
+#include "tests/support/alloc_counter.hpp"
 
 namespace r32 = hvac_twin::plant::r32;
 using hvac_twin::plant::Dual;
-
-// Allocation counter for this test executable: every replaceable operator new counts and
-// allocates with malloc, every operator delete frees (all variants replaced, so sanitizers see
-// matching pairs).
-namespace {
-std::atomic<long> g_allocations{0};
-void* counted_alloc(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n == 0 ? 1 : n);
-}
-}  // namespace
-void* operator new(std::size_t n) {
-  if (void* p = counted_alloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  if (void* p = counted_alloc(n)) return p;
-  throw std::bad_alloc();
-}
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  return counted_alloc(n);
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  return counted_alloc(n);
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, const std::nothrow_t&) noexcept {
-  std::free(p);
-}
 
 namespace {
 
@@ -282,14 +237,13 @@ TEST_CASE("out-of-range inputs return a recoverable status and finite values",
 TEST_CASE("evaluation allocates nothing", "[refrigerant][table]") {
   const r32::PhTable& t = table();
   double sink = 0.0;
-  const long before = g_allocations.load();
+  const hvac_twin::test::AllocationScope scope;
   for (int k = 0; k < 1000; ++k) {
     const double p = 0.2e6 + 4e3 * k;
     const double h = 1.5e5 + 400.0 * k;
     sink += t.ph(p, h).rho + t.sat_p(p).T;
     sink += t.ph(Dual<8>(p), Dual<8>(h)).drho_dh_p.v;
   }
-  const long after = g_allocations.load();
-  CHECK(after == before);
+  CHECK(scope.count() == 0);
   CHECK(std::isfinite(sink));
 }
