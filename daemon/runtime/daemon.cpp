@@ -11,7 +11,7 @@
 
 namespace hvac_twin::runtime {
 
-Daemon::Daemon(config::Config config, std::shared_ptr<spdlog::logger> log, FaultHooks hooks)
+Daemon::Daemon(config::Config config, std::shared_ptr<spdlog::logger> log, CycleHooks* hooks)
     : config_(std::move(config)), log_(std::move(log)), hooks_(hooks) {}
 
 Daemon::~Daemon() {

@@ -28,7 +28,7 @@ inline constexpr std::int64_t kRepeatLogIntervalNs = 60'000'000'000;
 
 class Daemon {
  public:
-  Daemon(config::Config config, std::shared_ptr<spdlog::logger> log, FaultHooks hooks = {});
+  Daemon(config::Config config, std::shared_ptr<spdlog::logger> log, CycleHooks* hooks = nullptr);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -48,7 +48,7 @@ class Daemon {
 
   config::Config config_;
   std::shared_ptr<spdlog::logger> log_;
-  FaultHooks hooks_;
+  CycleHooks* hooks_;  // null but in fault-injection tests
   SystemdNotifier notifier_;
   std::unique_ptr<dds::Participant> participant_;
   std::vector<std::unique_ptr<UnitPipeline>> pipelines_;

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-#include <thread>
 
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/enkf.hpp"
@@ -77,7 +76,7 @@ std::unique_ptr<est::Estimator> make_filter(const plant::ContinuousModel& model,
 
 UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
                            dds::Participant& participant, std::shared_ptr<spdlog::logger> log,
-                           FaultHooks hooks)
+                           CycleHooks* hooks)
     : unit_(config.units.at(unit_index)),
       site_(config.site_id),
       log_(std::move(log)),
@@ -358,16 +357,6 @@ void UnitPipeline::step_track(const est::TrackStep& s, std::uint32_t& flags) {
   }
 }
 
-void UnitPipeline::fault_hooks(std::uint64_t cycle) {
-  if (hooks_.hang_at_cycle != 0 && cycle == hooks_.hang_at_cycle) {
-    log_->warn("unit {}: fault hook: cycle {} hangs", unit_.id, cycle);
-    while (!stopping_.load())
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  if (hooks_.extra_cycle_delay_ns > 0)
-    std::this_thread::sleep_for(std::chrono::nanoseconds(hooks_.extra_cycle_delay_ns));
-}
-
 CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   const std::int64_t start = monotonic_ns();
   const std::int64_t stamp = realtime_ns();
@@ -401,7 +390,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
         flags |= dds::kFlagNumericalReset;
       }
     }
-    fault_hooks(tick.index);
+    if (hooks_ != nullptr) hooks_->after_predict(unit_.id, tick.index, stopping_);
     fused_points_ = 0;
     const bool in_time = monotonic_ns() - start <= deadline_ns_;
     if (!in_time) {
@@ -472,8 +461,7 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
   const plant::ModelLayout& layout = model_->layout();
   if (estimates_valid) {
     for (std::size_t i = 0; i < y_.size(); ++i) {
-      const bool poison = i == 0 && hooks_.nan_output_at_cycle != 0 &&
-                          cycle == hooks_.nan_output_at_cycle;  // test hook
+      const bool poison = i == 0 && hooks_ != nullptr && hooks_->poison_output(cycle);
       publisher_->publish(dds::VirtualSensorSample{.name = layout.outputs[i].name,
                                                    .value = poison ? std::nan("") : y_[i],
                                                    .sigma = sigma_[i],

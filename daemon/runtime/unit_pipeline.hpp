@@ -28,6 +28,7 @@
 #include "daemon/estimation/track_monitor.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
 #include "daemon/runtime/checkpoint_writer.hpp"
+#include "daemon/runtime/cycle_hooks.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "io/dds/participant.hpp"
 #include "io/dds/publisher.hpp"
@@ -36,14 +37,6 @@
 #include "plant_models/core/model.hpp"
 
 namespace hvac_twin::runtime {
-
-// Test hooks (command-line options of hvac-twind, never set in production).
-struct FaultHooks {
-  std::uint64_t hang_at_cycle = 0;        // this cycle blocks until stop(); 0 = never
-  std::int64_t extra_cycle_delay_ns = 0;  // added after predict in every cycle (forces overruns)
-  std::uint64_t nan_output_at_cycle = 0;  // this cycle hands the publisher a NaN for the first
-                                          // model output (the publisher's guard must drop it)
-};
 
 // Bad-data guards between the poller and the filter. The poller already refuses values that are
 // not finite or outside the point's configured range (OUT_OF_RANGE); the pipeline checks again
@@ -65,7 +58,7 @@ struct CycleOutcome {
 class UnitPipeline {
  public:
   UnitPipeline(const config::Config& config, std::size_t unit_index, dds::Participant& participant,
-               std::shared_ptr<spdlog::logger> log, FaultHooks hooks = {});
+               std::shared_ptr<spdlog::logger> log, CycleHooks* hooks = nullptr);
   ~UnitPipeline();
   UnitPipeline(const UnitPipeline&) = delete;
   UnitPipeline& operator=(const UnitPipeline&) = delete;
@@ -140,12 +133,11 @@ class UnitPipeline {
   // Lost track (est::TrackMonitor): the flag on this cycle's samples, a log line per episode, and
   // the restart when the filter's own covariance resets did not bring it back.
   void step_track(const est::TrackStep& s, std::uint32_t& flags);
-  void fault_hooks(std::uint64_t cycle);
 
   config::UnitConfig unit_;
   std::string site_;
   std::shared_ptr<spdlog::logger> log_;
-  FaultHooks hooks_;
+  CycleHooks* hooks_;            // null but in fault-injection tests
   double period_s_;              // model seconds per tick
   std::int64_t wall_period_ns_;  // wall nanoseconds per tick
   std::int64_t deadline_ns_;

@@ -53,7 +53,7 @@ class FaultRig {
     std::vector<std::string> args{"--config", path("config.json")};
     args.insert(args.end(), extra_args.begin(), extra_args.end());
     daemon_ =
-        std::make_unique<Process>(HVAC_TWIND_EXE, args, path("daemon.out"), path("daemon.err"));
+        std::make_unique<Process>(daemon_exe(args), args, path("daemon.out"), path("daemon.err"));
   }
   void start_echo(double duration_s) {
     echo_ = std::make_unique<Process>(

@@ -45,6 +45,12 @@ int Stack::start_sim(int port) {
   return port_;
 }
 
+const char* daemon_exe(const std::vector<std::string>& args) {
+  const bool faults = std::any_of(args.begin(), args.end(),
+                                  [](const std::string& a) { return a.rfind("--fault-", 0) == 0; });
+  return faults ? HVAC_TWIND_FAULTS_EXE : HVAC_TWIND_EXE;
+}
+
 void Stack::start_daemon_under(const std::vector<std::string>& wrapper,
                                const std::vector<std::string>& extra_args,
                                const std::vector<std::string>& env) {
@@ -52,11 +58,11 @@ void Stack::start_daemon_under(const std::vector<std::string>& wrapper,
   std::vector<std::string> args;
   if (!wrapper.empty()) {
     args.assign(wrapper.begin() + 1, wrapper.end());
-    args.push_back(HVAC_TWIND_EXE);
+    args.push_back(daemon_exe(extra_args));
   }
   args.insert(args.end(), {"--config", path("config.json")});
   args.insert(args.end(), extra_args.begin(), extra_args.end());
-  daemon_ = std::make_unique<Process>(wrapper.empty() ? HVAC_TWIND_EXE : wrapper[0], args,
+  daemon_ = std::make_unique<Process>(wrapper.empty() ? daemon_exe(extra_args) : wrapper[0], args,
                                       path("daemon.out"), path("daemon.err"), env);
 }
 

@@ -46,6 +46,10 @@ inline void cheapest_heat_pump(nlohmann::json& c) {
   p["two_phase_htc"] = 0;
 }
 
+// The daemon to run with these options: hvac-twind, or hvac-twind-faults when one of them is a
+// fault-injection hook (--fault-*, tests/support/fault_daemon_main.cpp).
+const char* daemon_exe(const std::vector<std::string>& args);
+
 // Every complete JSON line of the file (a partial last line, still being written, is skipped).
 std::vector<nlohmann::json> read_json_lines(const std::string& path);
 
