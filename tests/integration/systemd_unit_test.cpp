@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/integration/systemd_support.hpp"
+#include "tests/support/scratch_dir.hpp"
 
 using namespace hvac_twin::test;
 using namespace std::chrono_literals;
@@ -23,20 +24,15 @@ namespace fs = std::filesystem;
 
 // A fresh install tree for one test case.
 struct InstallTree {
-  fs::path prefix;
+  hvac_twin::test::ScratchDir scratch;
+  const fs::path& prefix;
   RunResult result;
 
-  explicit InstallTree(const std::string& name) {
-    prefix = fs::temp_directory_path() /
-             ("hvac-twin-install-" + name + "-" + std::to_string(::getpid()));
-    fs::remove_all(prefix);
-    result =
-        run({CMAKE_COMMAND_PATH, "--install", HVAC_TWIN_BINARY_DIR, "--prefix", prefix.string()});
-  }
-  ~InstallTree() {
-    std::error_code ec;
-    fs::remove_all(prefix, ec);
-  }
+  explicit InstallTree(const std::string& name)
+      : scratch("install-" + name),
+        prefix(scratch.path()),
+        result(run({CMAKE_COMMAND_PATH, "--install", HVAC_TWIN_BINARY_DIR, "--prefix",
+                    prefix.string()})) {}
   fs::path unit_dir() const {
     const fs::path dir = HVAC_TWIN_SYSTEMD_UNIT_DIR;
     return dir.is_absolute() ? dir : prefix / dir;

@@ -13,6 +13,7 @@
 #include "dds_test_support.hpp"
 #include "io/dds/echo/options.hpp"
 #include "io/dds/security.hpp"
+#include "tests/support/scratch_dir.hpp"
 
 using namespace hvac_twin;
 using namespace hvac_twin::dds;
@@ -25,13 +26,10 @@ namespace fs = std::filesystem;
 
 // Six small files in a fresh directory, named after the fields.
 struct SecurityFiles {
-  fs::path dir;
+  hvac_twin::test::ScratchDir dir;
   config::DdsSecurityConfig config;
 
-  explicit SecurityFiles(const std::string& name) {
-    dir = fs::temp_directory_path() / ("hvac-twin-sec-" + name + "-" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+  explicit SecurityFiles(const std::string& name) : dir("sec-" + name) {
     config.identity_ca = file("identity_ca.pem");
     config.identity_certificate = file("identity.pem");
     config.private_key = file("identity.key");
@@ -39,12 +37,8 @@ struct SecurityFiles {
     config.governance = file("governance.p7s");
     config.permissions = file("permissions.p7s");
   }
-  ~SecurityFiles() {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
   std::string file(const std::string& name) const {
-    const std::string path = (dir / name).string();
+    const std::string path = dir / name;
     std::ofstream(path) << "not really " << name << "\n";
     return path;
   }
@@ -92,24 +86,24 @@ TEST_CASE("security: the <Security> fragment names every file and the built-in p
   CHECK(xml.ends_with("</Security>"));
   for (const char* element : {"IdentityCA", "IdentityCertificate", "PrivateKey", "PermissionsCA",
                               "Governance", "Permissions"})
-    CHECK_THAT(xml, Catch::Contains(std::string("<") + element + ">file:" + files.dir.string()));
+    CHECK_THAT(xml,
+               Catch::Contains(std::string("<") + element + ">file:" + files.dir.path().string()));
   for (const char* library : {"dds_security_auth", "dds_security_ac", "dds_security_crypto"})
     CHECK_THAT(xml, Catch::Contains(std::string("path=\"") + library + "\""));
 
   // Credentials resolve against the environment, as systemd's LoadCredential= sets it.
   config::DdsSecurityConfig via_credentials = files.config;
   via_credentials.private_key = "${CREDENTIALS_DIRECTORY}/identity.key";
-  ::setenv("CREDENTIALS_DIRECTORY", files.dir.c_str(), 1);
+  ::setenv("CREDENTIALS_DIRECTORY", files.dir.path().c_str(), 1);
   const std::string resolved = make_security_xml(via_credentials);
   ::unsetenv("CREDENTIALS_DIRECTORY");
-  CHECK_THAT(resolved,
-             Catch::Contains("<PrivateKey>file:" + (files.dir / "identity.key").string() + "<"));
+  CHECK_THAT(resolved, Catch::Contains("<PrivateKey>file:" + (files.dir / "identity.key") + "<"));
 }
 
 TEST_CASE("security: a missing, empty or unreadable file is named at start-up", "[dds][security]") {
   const SecurityFiles files("missing");
   config::DdsSecurityConfig c = files.config;
-  c.governance = (files.dir / "nowhere.p7s").string();
+  c.governance = (files.dir / "nowhere.p7s");
   CHECK_THAT(message_of([&] { make_security_xml(c); }),
              Catch::Contains("cannot read dds.security.governance '" + c.governance + "'") &&
                  Catch::Contains("No such file or directory"));
@@ -118,14 +112,14 @@ TEST_CASE("security: a missing, empty or unreadable file is named at start-up", 
   CHECK_THAT(message_of([&] { make_security_xml(c); }),
              Catch::Contains("dds.security.permissions") && Catch::Contains("empty"));
   c = files.config;
-  c.identity_ca = files.dir.string();
+  c.identity_ca = files.dir.path().string();
   CHECK_THAT(message_of([&] { make_security_xml(c); }),
              Catch::Contains("dds.security.identity_ca") && Catch::Contains("not a regular file"));
 }
 
 TEST_CASE("security: Cyclone's refusal comes with Cyclone's reason", "[dds][security]") {
   const SecurityFiles files("refused");  // present but not certificates at all
-  config::DdsConfig dds = test::loopback_config(kDomainRefused);
+  config::DdsConfig dds = dds::test::loopback_config(kDomainRefused);
   dds.security = files.config;
   const std::string message = message_of([&] { (void)make_participant(dds); });
   CHECK_THAT(message, Catch::Contains("cannot create a participant in DDS domain 70"));
