@@ -120,6 +120,11 @@ struct EstimatorConfig {
   // The consistency monitor's window (mean NIS against its chi-square band) [s, model time]:
   // round(consistency_window_s / period_s) cycles, at least 30; that ratio at most 100000.
   double consistency_window_s = 3600.0;
+  // Bounded covariance matching of each measured point's noise over that window
+  // (daemon/estimation/noise_adapter.hpp): the filter is told measurement_noise^2 times a factor
+  // in [adaptive_noise_min, adaptive_noise_max] that the innovations estimate. Both 1: off.
+  double adaptive_noise_min = 1.0;  // (0, 1]
+  double adaptive_noise_max = 1.0;  // [1, 100]
   LeakDetectionConfig leak_detection;
   // Per state, in the state's unit; a state not listed takes the model's StateInfo default
   // (process_noise, initial, initial_std). Names are states of the unit's model.

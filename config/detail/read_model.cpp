@@ -183,6 +183,8 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   r.number("checkpoint_max_age_s", e.checkpoint_max_age_s, closed(0.0, 3.2e7), false, "s");
   const bool window_ok = r.number("consistency_window_s", e.consistency_window_s,
                                   positive(30.0 * kMaxPeriodS), false, "s");
+  r.number("adaptive_noise_min", e.adaptive_noise_min, closed(1e-2, 1.0));
+  r.number("adaptive_noise_max", e.adaptive_noise_max, closed(1.0, 100.0));
   read_leak_detection(r.get("leak_detection"), errors, e.leak_detection);
 
   const plant::ModelLayout* layout = context.layout;

@@ -218,7 +218,7 @@ void UnitPipeline::build_measurements() {
     note_stuck(stuck, unit_.points[b.point].name, s.value);
     z_[i] = est::Measurement{.output = b.output,
                              .value = refused ? 0.0 : v,
-                             .variance = b.variance,
+                             .variance = noise_ ? noise_->variance(i, b.variance) : b.variance,
                              .available = good && !refused && !stuck.stuck};
   }
 }
@@ -408,6 +408,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
       const bool covariance_reset = filter_->counters().covariance_resets != resets_before;
       if (covariance_reset) flags |= dds::kFlagNumericalReset;
       step_track(track_.observe(reports_, covariance_reset), flags);
+      if (noise_) noise_->observe(z_, reports_, told_variance_);
       for (std::size_t i = 0; i < reports_.size(); ++i)
         if (reports_[i].fused) fused_points_ |= std::uint64_t{1} << i;
       if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;

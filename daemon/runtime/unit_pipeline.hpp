@@ -24,6 +24,7 @@
 #include "daemon/estimation/consistency_monitor.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/leak_detector.hpp"
+#include "daemon/estimation/noise_adapter.hpp"
 #include "daemon/estimation/stuck_monitor.hpp"
 #include "daemon/estimation/track_monitor.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
@@ -205,6 +206,11 @@ class UnitPipeline {
     std::size_t calm_cycles = 0;  // cycles in band or low since the last HIGH one
   };
   std::unique_ptr<est::ConsistencyMonitor> consistency_;
+  // Adaptive measurement noise (estimator.adaptive_noise_*), null when off; the told variances,
+  // and the reports as the consistency monitor judges them (against the told noise).
+  std::unique_ptr<est::NoiseAdapter> noise_;
+  std::vector<double> told_variance_;
+  std::vector<est::MeasurementReport> told_reports_;
   std::vector<ConsistencyEpisode> consistency_episodes_;
 
   // Crash-safe checkpoints (estimator.checkpoint_every_cycles > 0).

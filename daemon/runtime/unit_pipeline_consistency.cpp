@@ -43,13 +43,37 @@ void UnitPipeline::bind_consistency() {
       static_cast<std::size_t>(std::llround(unit_.estimator.consistency_window_s / period_s_)));
   consistency_ = std::make_unique<est::ConsistencyMonitor>(measured_.size(), o);
   consistency_episodes_.assign(measured_.size() + 1, ConsistencyEpisode{});
+  const auto& e = unit_.estimator;
+  if (e.adaptive_noise_min < 1.0 || e.adaptive_noise_max > 1.0) {
+    noise_ = std::make_unique<est::NoiseAdapter>(
+        measured_.size(), est::NoiseAdapterOptions{.window_cycles = o.window_cycles,
+                                                   .min_samples = o.min_samples,
+                                                   .min_factor = e.adaptive_noise_min,
+                                                   .max_factor = e.adaptive_noise_max,
+                                                   .clip = e.nis_gate});
+    for (const auto& b : measured_)
+      told_variance_.push_back(b.variance);
+    told_reports_.resize(measured_.size());
+    log_->info(
+        "unit {}: adaptive measurement noise: each point's variance x [{}, {}], learnt over {} "
+        "cycles",
+        unit_.id, e.adaptive_noise_min, e.adaptive_noise_max, o.window_cycles);
+  }
 }
 
 void UnitPipeline::step_consistency(bool updated) {
   // Without an update reports_ still holds the previous cycle's reports: not a sample again.
-  if (updated)
+  if (updated && noise_) {
+    // Judged against the told noise: a point whose noise had to be inflated still shows HIGH.
+    for (std::size_t i = 0; i < reports_.size(); ++i) {
+      told_reports_[i] = reports_[i];
+      told_reports_[i].test_ratio =
+          est::NoiseAdapter::told_test_ratio(reports_[i], z_[i].variance, told_variance_[i]);
+    }
+    consistency_->add(told_reports_);
+  } else if (updated) {
     consistency_->add(reports_);
-  else
+  } else
     consistency_->skip();
   for (std::size_t f = 0; f <= measured_.size(); ++f)
     note_consistency(f);

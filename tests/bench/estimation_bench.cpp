@@ -122,6 +122,12 @@ bool parse(int argc, char** argv, Args& a) {
       bench::representativeness()[o] = std::atof(kv.substr(eq + 1).c_str());
     } else if (s == "--commission") {
       bench::commissioning_s = 3600.0 * std::atof(next().c_str());
+    } else if (s == "--adaptive-noise") {  // MIN:MAX, the daemon's adaptive_noise_min/max
+      const std::string v = next();
+      const auto colon = v.find(':');
+      if (colon == std::string::npos) return false;
+      bench::adaptive_noise_min = std::atof(v.substr(0, colon).c_str());
+      bench::adaptive_noise_max = std::atof(v.substr(colon + 1).c_str());
     } else if (s == "--noise-factor") {
       bench::filter_noise_factor = std::atof(next().c_str());
     } else if (s == "--filters") {
@@ -282,17 +288,18 @@ int main(int argc, char** argv) {
         "usage: estimation_bench [--short] [--hours H] [--period S] "
         "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
         "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
-        "[--noise-factor F] [--repr OUTPUT=SIGMA] [--commission H] [--csv FILE] [--svg FILE]\n");
+        "[--noise-factor F] [--adaptive-noise MIN:MAX] [--repr OUTPUT=SIGMA] [--commission H] "
+        "[--csv FILE] [--svg FILE]\n");
     return 2;
   }
   std::printf(
       "estimation_bench: %.1f simulated hours per truth, period %.0f s, EnKF %zu members "
-      "on %zu threads; truth %d cells, filters %d cells, R x %.1f\n",
+      "on %zu threads; truth %d cells, filters %d cells, R x %.1f, adaptive noise [%.2f, %.2f]\n",
       a.hours, a.period, a.members, a.threads, sim::kTruthCells,
       static_cast<int>(
           plant::with_defaults(*plant::find_schema("heat_pump_r32"), bench::filter_parameters())
               .at("cells")),
-      bench::filter_noise_factor);
+      bench::filter_noise_factor, bench::adaptive_noise_min, bench::adaptive_noise_max);
   bool finite = true;
   for (const bench::TruthKind kind : a.truths) {
     bench::HeatPumpTruth truth({}, 7, kind);

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "daemon/estimation/estimator.hpp"
+#include "daemon/estimation/noise_adapter.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/settling.hpp"
@@ -49,6 +50,15 @@ struct Measured {
   double repr;
 };
 inline double filter_noise_factor = 1.0;
+// The daemon's estimator.adaptive_noise_min / _max (daemon/estimation/noise_adapter.hpp), over
+// its default consistency window (3600 s); both 1: off (the daemon's default).
+inline double adaptive_noise_min = 1.0, adaptive_noise_max = 1.0;
+inline est::NoiseAdapterOptions noise_adapter_options(double period_s) {
+  return {.window_cycles = static_cast<std::size_t>(std::llround(3600.0 / period_s)),
+          .min_samples = 30,
+          .min_factor = adaptive_noise_min,
+          .max_factor = adaptive_noise_max};
+}
 // Representativeness errors set on the command line (estimation_bench --repr OUTPUT=SIGMA),
 // replacing the point's own [output unit].
 inline std::map<std::size_t, double>& representativeness() {

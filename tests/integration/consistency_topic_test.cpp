@@ -219,3 +219,57 @@ TEST_CASE("sigmas too small are flagged HIGH and logged once, and the episode en
   stack.daemon().signal(SIGTERM);
   stack.daemon().wait(10s);
 }
+
+TEST_CASE("adaptive noise: the filter's own NIS back near 1, the told noise still judged HIGH",
+          "[integration][consistency][dds]") {
+  StackOptions o;
+  o.domain_id = 69;
+  // The sensor twice as noisy as told (variance x4), the daemon allowed to inflate it up to x9
+  // (estimator.adaptive_noise_max), over a window of 90 cycles (9 s).
+  o.sim_args = {"--noise-scale", "2"};
+  o.customize = [](nlohmann::json& c) {
+    c["units"][0]["estimator"]["consistency_window_s"] = 90 * 120.0;
+    c["units"][0]["estimator"]["adaptive_noise_max"] = 9.0;
+  };
+  Stack stack("consistency-adaptive", o);
+  dds::Participant participant(reader_config(o.domain_id));
+  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{false, true, false, false, true},
+                         kWallPeriod);
+  stack.start_sim();
+  stack.start_daemon();
+  // Three windows: the first to learn the noise, then what the filter and the monitor say.
+  std::vector<dds::ObservationRecord> observations;
+  dds::ConsistencyRecord newest;
+  const auto end = std::chrono::steady_clock::now() + 27s;
+  std::vector<dds::Record> got;
+  while (std::chrono::steady_clock::now() < end) {
+    got.clear();
+    reader.wait_and_take(100ms, got);
+    for (const auto& r : got) {
+      if (const auto* obs = std::get_if<dds::ObservationRecord>(&r))
+        observations.push_back(*obs);
+      else if (const auto* c = std::get_if<dds::ConsistencyRecord>(&r);
+               c != nullptr && c->point == "zone_temp")
+        newest = *c;
+    }
+  }
+  const std::string log = stack.daemon().err();
+  INFO("daemon stderr:\n" << log);
+  REQUIRE(observations.size() > 200);
+  // The filter's own NIS over the last 120 cycles (its noise learnt): about 1, where told the
+  // simulator's noise it would be about 4 (the sensor's variance x4, the prior's share small).
+  double sum = 0.0;
+  int n = 0;
+  for (auto it = observations.rbegin(); it != observations.rend() && n < 120; ++it, ++n)
+    sum += it->test_ratio;
+  const double own_nis = sum / n;
+  INFO("the filter's own mean NIS " << own_nis << "; the monitor's against the told noise "
+                                    << newest.mean_nis << " (" << newest.samples << " samples)");
+  CHECK(own_nis > 0.6);
+  CHECK(own_nis < 1.6);
+  // Nothing hidden: judged against the noise the filter was told, the sensor is still HIGH.
+  CHECK(newest.verdict == dds::ConsistencyVerdict::kHigh);
+  CHECK(once(log, "point zone_temp: innovations larger than the filter expects"));
+  stack.daemon().signal(SIGTERM);
+  stack.daemon().wait(10s);
+}

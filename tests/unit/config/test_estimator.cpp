@@ -119,3 +119,29 @@ TEST_CASE("estimator.consistency_window_s: default, value, range and the window 
   require_single_error(load_json(j), "/units/0/estimator",
                        {"consistency_window_s / period_s", "360000 cycles"});
 }
+
+TEST_CASE("estimator.adaptive_noise_min/max: off by default, values, ranges", "[config]") {
+  auto j = demo_json();
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    CHECK(r.config->units[0].estimator.adaptive_noise_min == 1.0);
+    CHECK(r.config->units[0].estimator.adaptive_noise_max == 1.0);
+  }
+  auto& est = j["units"][0]["estimator"];
+  est["adaptive_noise_min"] = 0.25;
+  est["adaptive_noise_max"] = 9;
+  {
+    const auto r = load_json(j);
+    require_ok(r);
+    CHECK(r.config->units[0].estimator.adaptive_noise_min == 0.25);
+    CHECK(r.config->units[0].estimator.adaptive_noise_max == 9.0);
+  }
+  est["adaptive_noise_max"] = 0.5;
+  require_single_error(load_json(j), "/units/0/estimator/adaptive_noise_max",
+                       {"[1, 100]", "got 0.5"});
+  est["adaptive_noise_max"] = 9;
+  est["adaptive_noise_min"] = 2;
+  require_single_error(load_json(j), "/units/0/estimator/adaptive_noise_min",
+                       {"[0.01, 1]", "got 2"});
+}
