@@ -75,12 +75,19 @@ int main(int argc, char** argv) {
       days_a = std::atof(next().c_str());
     else if (a == "--off-from")
       off_from = std::atof(next().c_str());
-    else if (a == "--no-augment")  // the filter considers this parameter instead
+    else if (a == "--adaptive-noise") {  // MIN:MAX, the daemon's adaptive_noise_min/max
+      const std::string v = next();
+      const auto colon = v.find(':');
+      if (colon == std::string::npos) return 2;
+      bench::adaptive_noise_min = std::atof(v.substr(0, colon).c_str());
+      bench::adaptive_noise_max = std::atof(v.substr(colon + 1).c_str());
+    } else if (a == "--no-augment")  // the filter considers this parameter instead
       bench::filter_parameters()["augment_" + next()] = 0;
     else {
-      std::fprintf(stderr,
-                   "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
-                   "[--days-a D] [--off-from H] [--no-augment NAME]...\n");
+      std::fprintf(
+          stderr,
+          "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
+          "[--days-a D] [--off-from H] [--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
       return 2;
     }
   }
@@ -119,17 +126,19 @@ int main(int argc, char** argv) {
   const est::LeakDetector probe(base.detector);
   std::printf(
       "leak_bench (%s): truth heat_pump_r32 at 20 cells with perturbed parameters; filter: the "
-      "constrained EKF on the daemon's model (12 cells, heat_pump_scenario.hpp), period %.0f s\n"
+      "constrained EKF on the daemon's model (12 cells, heat_pump_scenario.hpp), period %.0f s, "
+      "adaptive noise [%.2f, %.2f]\n"
       "detector: CUSUMs on the leak-rate estimate (sigma floor %.2f g/h) and on the charge "
       "deficit (allowance %.1f g, reference over %.1f h judged; 0: off), a decision per %.0f "
       "min of judgeable operation, design shift %.1f sigma, one false alarm per %.0f days "
       "designed (threshold %.2f sigma); warm-up %.0f min, hold %.0f min after a start, cycling "
       "above %.0f starts/h\n",
-      quick ? "short" : "long", period, base.detector.sigma_floor,
-      1e3 * base.detector.charge_allowance, base.detector.reference_s / 3600.0,
-      base.detector.interval_s / 60.0, base.detector.design_shift_sigma,
-      base.detector.false_alarm_interval_days, probe.threshold(), base.detector.warm_up_s / 60.0,
-      base.detector.startup_s / 60.0, base.detector.max_starts_per_hour);
+      quick ? "short" : "long", period, bench::adaptive_noise_min, bench::adaptive_noise_max,
+      base.detector.sigma_floor, 1e3 * base.detector.charge_allowance,
+      base.detector.reference_s / 3600.0, base.detector.interval_s / 60.0,
+      base.detector.design_shift_sigma, base.detector.false_alarm_interval_days, probe.threshold(),
+      base.detector.warm_up_s / 60.0, base.detector.startup_s / 60.0,
+      base.detector.max_starts_per_hour);
   if (quick)
     std::printf(
         "short form: the detector compressed into hours and the leaks 12 and 24 times faster "
