@@ -114,9 +114,7 @@ struct FilterRun {
   std::vector<std::size_t> truth_shared;   // ... and in the truth's
   std::vector<double> last_y, last_sigma;  // the outputs after the last step, with their sigma
   std::vector<est::MeasurementReport> last_reports;  // the last update's, when scored
-  std::unique_ptr<est::NoiseAdapter> noise;          // adaptive_noise_min/max, null when off
-  std::vector<est::Measurement> z_adapted;
-  std::vector<double> told;
+  std::optional<AdaptedMeasurements> offered;        // made at the first step (its period)
 
   FilterRun(const std::string& filter_name, const plant::ContinuousModel& truth_model,
             std::size_t members, std::size_t threads)
@@ -152,16 +150,8 @@ struct FilterRun {
   // simulation of the period from the prior; then, if scoring, every accumulator.
   void step(std::vector<double>& u, const HeatPumpTruth& truth, double t, double period,
             bool scoring) {
-    const std::vector<est::Measurement>& z_told = truth.measurements();
-    if (!noise && (adaptive_noise_min < 1.0 || adaptive_noise_max > 1.0)) {
-      noise = std::make_unique<est::NoiseAdapter>(z_told.size(), noise_adapter_options(period));
-      for (const auto& m : z_told)
-        told.push_back(m.variance);
-    }
-    z_adapted = z_told;
-    for (std::size_t i = 0; noise && i < z_adapted.size(); ++i)
-      z_adapted[i].variance = noise->variance(i, told[i]);
-    const std::vector<est::Measurement>& z = z_adapted;
+    if (!offered) offered.emplace(period);
+    const std::vector<est::Measurement>& z = offered->offer(truth.measurements());
     const std::size_t n = model->num_states();
     std::vector<est::MeasurementReport> reports(z.size());
     if (!started) {
@@ -195,7 +185,7 @@ struct FilterRun {
       const auto t1 = Clock::now();
       if (filter->update(z, u, reports) != est::StepStatus::kOk) ++failures;
       const double tu = ms_since(t1);
-      if (noise) noise->observe(z, reports, told);
+      offered->observe(reports);
       predict_ms.push_back(tp);
       update_ms.push_back(tu);
       step_ms.push_back(tp + tu);

@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
 #include <random>
 #include <span>
 #include <stdexcept>
@@ -53,12 +54,42 @@ inline double filter_noise_factor = 1.0;
 // The daemon's estimator.adaptive_noise_min / _max (daemon/estimation/noise_adapter.hpp), over
 // its default consistency window (3600 s); both 1: off (the daemon's default).
 inline double adaptive_noise_min = 1.0, adaptive_noise_max = 1.0;
-inline est::NoiseAdapterOptions noise_adapter_options(double period_s) {
-  return {.window_cycles = static_cast<std::size_t>(std::llround(3600.0 / period_s)),
+// The measurements a filter is offered: the truth's, their variances adapted as the daemon adapts
+// them when adaptive_noise_min/max say so (UnitPipeline::build_measurements), else as told.
+class AdaptedMeasurements {
+ public:
+  explicit AdaptedMeasurements(double period_s) {
+    if (adaptive_noise_min < 1.0 || adaptive_noise_max > 1.0)
+      options_ = est::NoiseAdapterOptions{
+          .window_cycles = static_cast<std::size_t>(std::llround(3600.0 / period_s)),
           .min_samples = 30,
           .min_factor = adaptive_noise_min,
           .max_factor = adaptive_noise_max};
-}
+  }
+  // Before the update: the truth's measurements with the variances to offer.
+  const std::vector<est::Measurement>& offer(const std::vector<est::Measurement>& told) {
+    z_ = told;
+    if (!options_) return z_;
+    if (!adapter_) {
+      adapter_ = std::make_unique<est::NoiseAdapter>(told.size(), *options_);
+      for (const auto& m : told)
+        told_.push_back(m.variance);
+    }
+    for (std::size_t i = 0; i < z_.size(); ++i)
+      z_[i].variance = adapter_->variance(i, told_[i]);
+    return z_;
+  }
+  // After the update: its reports.
+  void observe(const std::vector<est::MeasurementReport>& reports) {
+    if (adapter_) adapter_->observe(z_, reports, told_);
+  }
+
+ private:
+  std::optional<est::NoiseAdapterOptions> options_;
+  std::unique_ptr<est::NoiseAdapter> adapter_;
+  std::vector<est::Measurement> z_;
+  std::vector<double> told_;
+};
 // Representativeness errors set on the command line (estimation_bench --repr OUTPUT=SIGMA),
 // replacing the point's own [output unit].
 inline std::map<std::size_t, double>& representativeness() {

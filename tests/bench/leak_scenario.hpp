@@ -190,13 +190,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   std::vector<double> y(model->num_outputs()), sigma(model->num_outputs()),
       own_sigma(model->num_outputs());
   std::vector<est::MeasurementReport> reports(kMeasured.size());
-  // The daemon's adaptive measurement noise, when on (adaptive_noise_min/max).
-  std::unique_ptr<est::NoiseAdapter> noise;
-  if (adaptive_noise_min < 1.0 || adaptive_noise_max > 1.0)
-    noise =
-        std::make_unique<est::NoiseAdapter>(kMeasured.size(), noise_adapter_options(o.period_s));
-  std::vector<est::Measurement> z_adapted;
-  std::vector<double> told;
+  AdaptedMeasurements offered(o.period_s);  // the daemon's adaptive noise, when on
   std::vector<double> step_ms;
   LeakRunResult r;
   const auto wall0 = Clock::now();
@@ -244,13 +238,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
     prev_running = running;
     truth.advance(o.period_s);
     const double t_end = t + o.period_s;
-    z_adapted = truth.measurements();
-    if (noise && told.empty())
-      for (const auto& m : z_adapted)
-        told.push_back(m.variance);
-    for (std::size_t i = 0; noise && i < z_adapted.size(); ++i)
-      z_adapted[i].variance = noise->variance(i, told[i]);
-    const auto& z = z_adapted;
+    const auto& z = offered.offer(truth.measurements());
 
     bool ok = true;
     const auto t0 = Clock::now();
@@ -273,7 +261,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
     }
     const auto resets_before = ekf.counters().covariance_resets;
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
-    if (noise) noise->observe(z, reports, told);
+    offered.observe(reports);
     // Lost track, as the daemon judges it; its restart here at the next step.
     const est::TrackStep track_step =
         track.observe(reports, ekf.counters().covariance_resets != resets_before);
