@@ -1,8 +1,8 @@
 // kill -9 at random moments: a writer process saves checkpoints in a tight loop and is killed
-// after a random 0-30 ms; then the checkpoint is loaded as a restarted daemon would. The atomic
-// store must yield a whole checkpoint, never older than the previous trial's, in every trial; the
-// naive in-place writer (the negative control) must fail the same harness at least once, which
-// shows that the harness can fail.
+// a random 0-30 ms after its first save began; then the checkpoint is loaded as a restarted daemon
+// would. The atomic store must yield a whole checkpoint, never older than the previous trial's, in
+// every trial; the naive in-place writer (the negative control) must fail the same harness at least
+// once, which shows that the harness can fail.
 //
 // What this proves and what it does not: SIGKILL ends the process, not the kernel, so the page
 // cache survives and every write() the writer completed stays visible. The test therefore
@@ -12,10 +12,16 @@
 // daemon/runtime/checkpoint_store.hpp, and the fsync calls' failures are tested by
 // checkpoint_fault_test.cpp.
 //
-// The delays come from a seeded generator (HVAC_TWIN_CKPT_SEED, default below), printed; the
-// kill instants still depend on scheduling, so a run is repeatable in distribution only.
+// The delays come from a seeded generator (HVAC_TWIN_CKPT_SEED, default below), printed, and run
+// from the writer's first visible save, not from its exec: on a loaded machine (or under the
+// sanitizers) a writer can need more than the whole delay range to start, and every kill then
+// landed before its first save (seen once under ASan with the machine busy: 200 of 200 trials
+// killed at start-up, so the negative control found nothing). The kill instants still depend on
+// scheduling, so a run is repeatable in distribution only.
 #include <signal.h>
+#include <sys/stat.h>
 
+#include <array>
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cstdio>
@@ -60,6 +66,28 @@ std::vector<std::string> writer_args(const test::TempDir& dir, bool naive, std::
   return a;
 }
 
+// What the checkpoint file is now (which inode, when last changed, how long), or all zero.
+std::array<long long, 4> file_state(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return {};
+  return {static_cast<long long>(st.st_ino), static_cast<long long>(st.st_mtim.tv_sec),
+          static_cast<long long>(st.st_mtim.tv_nsec), static_cast<long long>(st.st_size)};
+}
+
+// Waits (up to 20 s) until the writer has begun its first save: the checkpoint file changed
+// (renamed over, or rewritten in place) or the atomic writer's temporary exists.
+bool wait_for_first_save(const test::TempDir& dir, const std::array<long long, 4>& before) {
+  const std::string file = dir.str() + "/state.ckpt";
+  const std::string tmp = file + ".tmp";
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < until) {
+    struct stat st {};
+    if (file_state(file) != before || ::stat(tmp.c_str(), &st) == 0) return true;
+    std::this_thread::sleep_for(std::chrono::microseconds(50));
+  }
+  return false;
+}
+
 Tally kill_trials(bool naive, std::uint32_t seed_value) {
   test::TempDir dir;
   runtime::CheckpointStore store(dir.str(), "state.ckpt", test::checkpoint_expectation(kStates));
@@ -70,8 +98,14 @@ Tally kill_trials(bool naive, std::uint32_t seed_value) {
   REQUIRE(test::run_child(writer_args(dir, naive, last, 1)).exited_ok());
   Tally t;
   for (int trial = 0; trial < kTrials; ++trial) {
+    const auto before = file_state(dir.str() + "/state.ckpt");
     const pid_t pid = test::spawn_child(writer_args(dir, naive, last + 1, 0));
     REQUIRE(pid > 0);
+    if (!wait_for_first_save(dir, before)) {
+      ::kill(pid, SIGKILL);
+      test::wait_child(pid);
+      FAIL("the writer did not begin a save within 20 s");
+    }
     std::this_thread::sleep_for(std::chrono::microseconds(delay_us(rng)));
     ::kill(pid, SIGKILL);
     const int status = test::wait_child(pid);
