@@ -76,8 +76,7 @@ std::array<long long, 4> file_state(const std::string& path) {
 
 // Waits (up to 20 s) until the writer has begun its first save: the checkpoint file changed
 // (renamed over, or rewritten in place) or the atomic writer's temporary exists.
-bool wait_for_first_save(const test::TempDir& dir, const std::array<long long, 4>& before) {
-  const std::string file = dir.str() + "/state.ckpt";
+bool wait_for_first_save(const std::string& file, const std::array<long long, 4>& before) {
   const std::string tmp = file + ".tmp";
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < until) {
@@ -96,12 +95,13 @@ Tally kill_trials(bool naive, std::uint32_t seed_value) {
   std::uint64_t last = 1;
   // One complete save first, so that every trial has a previous checkpoint to keep.
   REQUIRE(test::run_child(writer_args(dir, naive, last, 1)).exited_ok());
+  const std::string file = dir.str() + "/state.ckpt";
   Tally t;
   for (int trial = 0; trial < kTrials; ++trial) {
-    const auto before = file_state(dir.str() + "/state.ckpt");
+    const auto before = file_state(file);
     const pid_t pid = test::spawn_child(writer_args(dir, naive, last + 1, 0));
     REQUIRE(pid > 0);
-    if (!wait_for_first_save(dir, before)) {
+    if (!wait_for_first_save(file, before)) {
       ::kill(pid, SIGKILL);
       test::wait_child(pid);
       FAIL("the writer did not begin a save within 20 s");
