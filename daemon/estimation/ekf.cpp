@@ -57,6 +57,8 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   held_.assign(max_measurements, 0);
   readmit_at_.assign(max_measurements, 0);
   readmit_interval_.assign(max_measurements, 0);
+  streak_value_.assign(max_measurements, 0.0);
+  streak_varied_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
   init_consider(model.layout());
   if (options_.constrained) build_constraints();
@@ -201,6 +203,7 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   const std::size_t rejected = gate(z, reports, count, available);
   lost_updates_ = available >= 2 && 2 * rejected > available ? lost_updates_ + 1 : 0;
   const bool lost = lost_updates_ >= options_.max_consecutive_rejections;
+  if (available == 1 && rejected == 1) arm_lone_point(reports, count);
   const bool readmit = readmission_due(z, reports, count);
   const bool reset = readmit || lost;
   if (reset) {
@@ -265,7 +268,12 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
       rep.rejected = true;
       ++rejected;
       ++counters_.gate_rejections;
-      ++consecutive_rejections_[i];
+      if (++consecutive_rejections_[i] == 1) {
+        streak_value_[i] = mz.value;
+        streak_varied_[i] = 0;
+      } else if (mz.value != streak_value_[i]) {
+        streak_varied_[i] = 1;
+      }
     } else {
       rep.fused = true;  // fused by update()
       consecutive_rejections_[i] = 0;
@@ -273,6 +281,20 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
     rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
   }
   return rejected;
+}
+
+void Ekf::arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) {
+    // A reading that has not changed once in the streak is rather a frozen transmitter than a
+    // lost filter: the stuck check's to judge (StuckMonitor), from the model's drift meanwhile,
+    // which a reset fusing the frozen value would stop.
+    if (!reports[i].rejected || !reports[i].faulty || readmit_at_[i] != 0 || !streak_varied_[i])
+      continue;
+    // Due now; readmission_due() doubles the interval, so the next test is
+    // 2 x max_consecutive_rejections later, as for a point held out at a reset.
+    readmit_interval_[i] = std::max(readmit_interval_[i], options_.max_consecutive_rejections);
+    readmit_at_[i] = consecutive_rejections_[i];
+  }
 }
 
 bool Ekf::readmission_due(std::span<const Measurement> z,

@@ -21,9 +21,15 @@
 // reset that tests every point against the initial covariance lets it back in. Was the point
 // wrong after all, the filter is lost again a few updates later and resets holding it out; the
 // test backs off, its interval doubling, while the point stays wrong. A point
-// rejected alone with no reset is not re-admitted so: from one point a drift and a structural
-// mismatch of the model look the same, and a reset every few updates for a biased sensor would
-// throw away what the filter knows of the slow states.
+// rejected alone while others are fused is not re-admitted so: from one point a drift and a
+// structural mismatch of the model look the same, and a reset every few updates for a biased
+// sensor would throw away what the filter knows of the slow states. A point that is the only
+// available one is: rejected max_consecutive_rejections times in a row, it is tested against
+// the initial covariance at once and then with the same back-off, unless its reading has not
+// changed once in the streak (a frozen transmitter, for the stuck check). Alone, there is no other
+// information to keep, and nothing else would ever end its streak: a zone filter with one
+// temperature sensor, overconfident after a cold-start transient, was seen predicting 2 K below
+// its sensor for hundreds of updates, its variance levelling off below what the gate needed.
 //
 // Pure library: no I/O, no clock (dt is passed in). Construction allocates; reset(), predict(),
 // update() and output_estimates() never allocate and never throw. One instance per thread.
@@ -113,6 +119,9 @@ class Ekf final : public Estimator {
   std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
                    std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
+  // The only available point has been rejected max_consecutive_rejections times in a row: the
+  // filter is running on its model alone. Arms the point for readmission_due(), due now.
+  void arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count);
   // Whether an armed point rejected readmit_at_ times in a row passes the gate against the
   // initial covariance (a covariance reset is due); advances the back-off of every point tested.
   bool readmission_due(std::span<const Measurement> z, std::span<const MeasurementReport> reports,
@@ -140,13 +149,18 @@ class Ekf final : public Estimator {
   std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
   int lost_updates_ = 0;                     // consecutive updates with most points gated out
   std::vector<int> held_;  // per slot, after a reset: its rejections in a row before, or -1
-  // Per slot, armed when a covariance reset held the point out and its re-test failed: the
+  // Per slot, armed when a covariance reset held the point out and its re-test failed, or when
+  // it was the only available point and rejected max_consecutive_rejections times in a row: the
   // rejections in a row at which it is next tested against the initial covariance (0:
   // disarmed), 2 x max_consecutive_rejections later, the interval doubling after each test (a
   // transmitter that stays wrong costs a covariance reset ever more rarely); disarmed when the
   // gate lets it in, kept armed when a reset did (one update far from the truth may not do).
   std::vector<int> readmit_at_, readmit_interval_;
   static constexpr int kMaxReadmitInterval = 1 << 20;
+  // Per slot: the value of the first rejection of the current streak, and whether a later one
+  // in the streak differed from it (a lone point is armed only then: arm_lone_point()).
+  std::vector<double> streak_value_;
+  std::vector<char> streak_varied_;
   std::vector<double> x_buf_;  // contiguous scratch for the integrator
 
   // Constrained mode.

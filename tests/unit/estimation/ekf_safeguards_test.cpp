@@ -125,3 +125,85 @@ TEST_CASE("output estimates carry delta-method standard deviations", "[ekf]") {
   CHECK(y == Approx(2.0));
   CHECK(sigma == Approx(0.2 / (2.0 * 2.0)));  // |d sqrt(x)/dx| * sigma_x
 }
+
+// The filter sure of a wrong value (its process noise too small to ever doubt it), its only
+// sensor reading something else.
+TEST_CASE("the only available point, rejected in a row, is let back in when plausible",
+          "[ekf][gate]") {
+  const plant::AdModel<test::RandomWalk> model{test::RandomWalk{}};
+  est::EkfOptions opt;
+  opt.max_consecutive_rejections = 5;
+  est::Ekf ekf(model, std::vector<double>{1e-9}, 1, opt);
+  ekf.reset(std::vector<double>{0.0}, std::vector<double>{1.0});
+  est::MeasurementReport rep;
+  auto m = meas(0.0, 1e-4);
+  for (int k = 0; k < 3; ++k)
+    REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+  REQUIRE(ekf.covariance()(0, 0) < 1e-4);
+
+  // A live sensor: its reading moves by its noise from one update to the next.
+  const auto reading = [](double value, int k) {
+    return meas(value + (k % 2 ? 0.005 : -0.005), 1e-4);
+  };
+
+  SECTION("a step the filter cannot follow: re-admitted at the fifth rejection, then fused") {
+    // NIS ~ 2000 against the prior, 0.25 against the initial covariance.
+    for (int k = 1; k <= 4; ++k) {
+      m = reading(0.5, k);
+      REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+      CHECK(rep.rejected);
+    }
+    CHECK(ekf.state()(0) == 0.0);
+    m = reading(0.5, 5);
+    REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+    CHECK(rep.fused);
+    CHECK(ekf.counters().covariance_resets == 1);
+    CHECK(ekf.state()(0) == Approx(0.5).margin(0.01));
+    for (int k = 6; k < 26; ++k) {
+      m = reading(0.5, k);
+      REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+      CHECK(rep.fused);
+    }
+    CHECK(ekf.counters().covariance_resets == 1);
+  }
+  SECTION("an absurd reading stays out, and costs no reset") {
+    for (int k = 0; k < 200; ++k) {
+      m = reading(50.0, k);  // NIS 2500 against the initial covariance too
+      REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+      CHECK(rep.rejected);
+    }
+    CHECK(ekf.state()(0) == 0.0);
+    CHECK(ekf.counters().covariance_resets == 0);
+  }
+  SECTION("a frozen reading, the same value every time, is left to the stuck check") {
+    m = meas(0.5, 1e-4);
+    for (int k = 0; k < 200; ++k) {
+      REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+      CHECK(rep.rejected);
+    }
+    CHECK(ekf.state()(0) == 0.0);
+    CHECK(ekf.counters().covariance_resets == 0);
+  }
+}
+
+TEST_CASE("a point rejected while another is fused is not let back in by a reset", "[ekf][gate]") {
+  const plant::AdModel<test::StructuralError> model{test::StructuralError{}};
+  est::Ekf ekf(model, std::vector<double>{1e-9}, 2, est::EkfOptions{});
+  ekf.reset(std::vector<double>{0.0}, std::vector<double>{1.0});
+  // y = x right, "twice" reading 1 where the model says 0: plausible against the initial
+  // covariance (S0 ~ 4), never against the posterior the first point keeps tight.
+  std::vector<est::Measurement> z{meas(0.0, 1e-4), meas(1.0, 1e-4)};
+  z[1].output = 1;
+  std::vector<est::MeasurementReport> reps(2);
+  z[1].available = false;  // the first point alone first: both at once would meet half-way
+  for (int k = 0; k < 3; ++k)
+    REQUIRE(ekf.update(z, {}, reps) == est::StepStatus::kOk);
+  z[1].available = true;
+  for (int k = 0; k < 100; ++k) {
+    REQUIRE(ekf.update(z, {}, reps) == est::StepStatus::kOk);
+    CHECK(reps[0].fused);
+    CHECK(reps[1].rejected);
+  }
+  CHECK(ekf.counters().covariance_resets == 0);
+  CHECK(ekf.state()(0) == Approx(0.0).margin(1e-3));
+}
