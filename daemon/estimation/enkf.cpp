@@ -75,6 +75,12 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
   ymean_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m_));
   fused_.assign(static_cast<std::size_t>(f), 0);
   consecutive_rejections_.assign(max_measurements, 0);
+  std0_ = Eigen::VectorXd::Zero(n);
+  X_kept_ = Eigen::MatrixXd::Zero(n, N);
+  streak_value_.assign(max_measurements, 0.0);
+  streak_varied_.assign(max_measurements, 0);
+  readmit_at_.assign(max_measurements, 0);
+  readmit_interval_.assign(max_measurements, 0);
   active_.assign(constraints_.rows(), -1);
   init_consider(model.layout());
   // Sized by a factorisation, for the same reason as llt_.
@@ -96,7 +102,11 @@ void ConstrainedEnkf::reset(std::span<const double> x0, std::span<const double> 
   for (std::size_t i = 0; i < N_; ++i)
     for (std::size_t j = 0; j < n_; ++j)
       X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = x0[j] + std0[j] * normal(i);
+  for (std::size_t j = 0; j < n_; ++j)
+    std0_(static_cast<Eigen::Index>(j)) = std0[j];
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
+  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);
   statistics();
   if (options_.constrained) constrain({});
   statistics();
@@ -134,6 +144,8 @@ bool ConstrainedEnkf::restore(std::span<const double> x, std::span<const double>
   for (Eigen::Index j = 0; j < n; ++j)
     X_.row(j).array() += x[static_cast<std::size_t>(j)] - mean_(j);
   std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
+  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
+  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);
   active_count_ = 0;
   counters_ = counters;
   statistics();
@@ -218,7 +230,7 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
   const double inv = 1.0 / static_cast<double>(N_ - 1);
 
   // Gate every available measurement against the ensemble.
-  std::size_t f = 0;
+  std::size_t f = 0, available = 0;
   for (std::size_t i = 0; i < count; ++i) {
     const Measurement& mz = z[i];
     MeasurementReport& rep = reports[i];
@@ -227,22 +239,25 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     const auto o = static_cast<Eigen::Index>(mz.output);
     if (mz.output < m_) rep.predicted = ymean_(o);  // also for one not offered (a stuck sensor)
     if (!rep.available) continue;
-    const double r = std::max(mz.variance, options_.min_measurement_variance);
-    const double var = (Y_.row(o).array() - ymean_(o)).square().sum() * inv;
-    rep.innovation = mz.value - ymean_(o);
-    rep.innovation_variance = var + r;
-    rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
-    if (!(rep.test_ratio <= options_.nis_gate)) {
-      rep.rejected = true;
+    ++available;
+    gate(mz, rep);
+    if (rep.rejected) {
       ++counters_.gate_rejections;
-      ++consecutive_rejections_[i];
+      if (++consecutive_rejections_[i] == 1) {
+        streak_value_[i] = mz.value;
+        streak_varied_[i] = 0;
+      } else if (mz.value != streak_value_[i]) {
+        streak_varied_[i] = 1;
+      }
     } else {
-      rep.fused = true;
       consecutive_rejections_[i] = 0;
+      readmit_at_[i] = readmit_interval_[i] = 0;  // fused by the gate: disarmed
       fused_[f++] = i;
     }
     rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
   }
+  for (std::size_t i = 0; i < count && available == 1 && f == 0; ++i)
+    if (reports[i].rejected && readmit_lone_point(i, z[i], u, reports[i])) fused_[f++] = i;
 
   if (f > 0) {
     // Padded to the workspace size: unused slots are identity rows with zero innovations, so
@@ -285,6 +300,62 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
   statistics();
   if (!X_.allFinite()) return StepStatus::kNumericalReset;
   return StepStatus::kOk;
+}
+
+void ConstrainedEnkf::gate(const Measurement& mz, MeasurementReport& rep) const {
+  const auto o = static_cast<Eigen::Index>(mz.output);
+  const double r = std::max(mz.variance, options_.min_measurement_variance);
+  const double var = (Y_.row(o).array() - ymean_(o)).square().sum() / static_cast<double>(N_ - 1);
+  rep.innovation = mz.value - ymean_(o);
+  rep.innovation_variance = var + r;
+  rep.test_ratio = rep.innovation * rep.innovation / rep.innovation_variance;
+  rep.rejected = !(rep.test_ratio <= options_.nis_gate);
+  rep.fused = !rep.rejected;
+}
+
+bool ConstrainedEnkf::readmit_lone_point(std::size_t i, const Measurement& mz,
+                                         std::span<const double> u, MeasurementReport& rep) {
+  if (!rep.faulty || streak_varied_[i] == 0) return false;  // a frozen reading: the stuck check's
+  if (readmit_at_[i] == 0) {                                // armed, due now
+    readmit_interval_[i] = std::max(readmit_interval_[i], options_.max_consecutive_rejections);
+    readmit_at_[i] = consecutive_rejections_[i];
+  }
+  if (consecutive_rejections_[i] < readmit_at_[i]) return false;
+  readmit_interval_[i] = std::min(2 * readmit_interval_[i], kMaxReadmitInterval);  // back off
+  readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
+  // The members spread again about their mean (recentred: the mean does not move).
+  X_kept_ = X_;
+  for (std::size_t k = 0; k < N_; ++k)
+    for (std::size_t j = 0; j < n_; ++j) {
+      const auto J = static_cast<Eigen::Index>(j);
+      X_(J, static_cast<Eigen::Index>(k)) = std0_(J) * normal(k);
+    }
+  draw_ = X_.rowwise().mean();
+  draw_ = mean_ - draw_;
+  X_.colwise() += draw_;
+  statistics();
+  if (options_.constrained) constrain({});
+  statistics();
+  MeasurementReport retest = rep;
+  const bool evaluated = evaluate_outputs(u);
+  if (evaluated) {
+    ymean_ = Y_.rowwise().mean();
+    gate(mz, retest);
+  }
+  if (!evaluated || retest.rejected) {  // put back as they were
+    X_ = X_kept_;
+    statistics();
+    evaluate_outputs(u);
+    ymean_ = Y_.rowwise().mean();
+    return false;
+  }
+  ++counters_.covariance_resets;
+  --counters_.gate_rejections;
+  consecutive_rejections_[i] = 0;
+  readmit_at_[i] = readmit_interval_[i];  // let in by a reset: stays armed (see ekf.hpp)
+  retest.faulty = false;
+  rep = retest;
+  return true;
 }
 
 void ConstrainedEnkf::constrain(std::span<const double> u) {

@@ -12,6 +12,11 @@
 // projection.hpp in the metric diag(P) (the ensemble covariance itself is singular when there
 // are fewer members than states), and a member that violates an output constraint is drawn
 // towards the ensemble mean until it satisfies it.
+// A unit's only available point, rejected max_consecutive_rejections times in a row with a
+// reading that moved meanwhile, is tested against the initial spread as the EKF does (ekf.hpp):
+// the members are spread again about their mean with reset()'s standard deviations, and if the
+// point passes the gate there it is fused (a covariance reset); if not, the members are put back
+// and the test is repeated later, its interval doubling.
 // Estimates: mean and covariance of the ensemble; outputs' mean and standard deviation over the
 // members.
 //
@@ -86,6 +91,11 @@ class ConstrainedEnkf final : public Estimator {
   bool evaluate_outputs(std::span<const double> u);  // Y_ = h(X_); false if a member failed
   void constrain(std::span<const double> u);         // u empty: state constraints only
   double normal(std::size_t member) { return gauss_[member](rng_[member]); }
+  // Tests mz against the ensemble's outputs Y_ (ymean_ current): innovation, S, NIS, the verdict.
+  void gate(const Measurement& mz, MeasurementReport& rep) const;
+  // The lone rejected point i (see above): whether it is fused after a re-spread of the members.
+  bool readmit_lone_point(std::size_t i, const Measurement& mz, std::span<const double> u,
+                          MeasurementReport& rep);
 
   const plant::ContinuousModel& model_;
   EnkfOptions options_;
@@ -108,6 +118,15 @@ class ConstrainedEnkf final : public Estimator {
   Eigen::VectorXd ymean_;
   std::vector<std::size_t> fused_;
   std::vector<int> consecutive_rejections_;
+  // The lone-point re-admission: reset()'s standard deviations, the members kept while it is
+  // tested, and per slot the streak's first value, whether a later one differed, and the
+  // rejections in a row at which it is next tested (0: not armed) and the interval after that.
+  Eigen::VectorXd std0_;
+  Eigen::MatrixXd X_kept_;
+  std::vector<double> streak_value_;
+  std::vector<char> streak_varied_;
+  std::vector<int> readmit_at_, readmit_interval_;
+  static constexpr int kMaxReadmitInterval = 1 << 20;
   // Constraints.
   ConstraintSet constraints_;
   Eigen::MatrixXd metric_;  // diag(P) as a dense matrix for the projection
