@@ -155,7 +155,7 @@ TEST_CASE("sigmas too small are flagged HIGH and logged once, and the episode en
   // The zone sensor's noise twice what the filter is told: NIS ~ 3, a few per cent rejected.
   // (Until the EKF let a unit's only point back in after a streak of rejections, a cold-start
   // transient could leave this single-sensor filter 2 K off its sensor for good: seen in one run
-  // of six here, and in 3 of 10 runs of the next case under the sanitizers.)
+  // of six here, and in 4 of 12 runs of the next case under the sanitizers.)
   o.sim_args = {"--noise-scale", "2"};
   // A window of 90 cycles (9 s): its mean NIS (~3 here, ~1 at the told noise) has a spread of
   // 0.45 (0.15), far from the band's top at 1.31: no flapping between verdicts in this test.
