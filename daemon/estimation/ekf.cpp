@@ -53,12 +53,8 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
     const double width = s.max - s.min;
     if (std::isfinite(width)) max_var_(i) = width * width;
   }
-  consecutive_rejections_.assign(max_measurements, 0);
+  streaks_.resize(max_measurements);
   held_.assign(max_measurements, 0);
-  readmit_at_.assign(max_measurements, 0);
-  readmit_interval_.assign(max_measurements, 0);
-  streak_value_.assign(max_measurements, 0.0);
-  streak_varied_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
   init_consider(model.layout());
   if (options_.constrained) build_constraints();
@@ -138,9 +134,7 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   P_good_ = P_;
   P_initial_ = P_;
   lost_updates_ = 0;
-  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
-  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
-  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);  // a fresh back-off
+  streaks_.clear();
 }
 
 bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major,
@@ -160,9 +154,7 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   P_good_ = P_;
   counters_ = counters;
   lost_updates_ = 0;
-  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
-  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
-  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);  // a fresh back-off
+  streaks_.clear();
   active_count_ = 0;
   return true;
 }
@@ -191,7 +183,7 @@ StepStatus Ekf::predict(std::span<const double> u, double dt) {
 StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u,
                        std::span<MeasurementReport> reports) {
   ++counters_.updates;
-  const std::size_t count = std::min({z.size(), reports.size(), consecutive_rejections_.size()});
+  const std::size_t count = std::min({z.size(), reports.size(), streaks_.size()});
   for (std::size_t i = 0; i < count; ++i)
     reports[i] = MeasurementReport{};
   if (model_.output_jacobian(span_of(x_), u, span_of(y_), span_of(H_)) != plant::kModelOk)
@@ -217,22 +209,18 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     ++counters_.covariance_resets;
     counters_.gate_rejections -= rejected;
     for (std::size_t i = 0; i < count; ++i) {
-      if (reports[i].rejected) --consecutive_rejections_[i];
-      held_[i] = reports[i].faulty && !readmit ? consecutive_rejections_[i] : -1;
+      if (reports[i].rejected) streaks_.uncount(i);
+      held_[i] = reports[i].faulty && !readmit ? streaks_.count(i) : -1;
     }
     P_ = P_initial_;
     gate(z, reports, count, available);
   }
   for (std::size_t i = 0; i < count; ++i) {
     if (!reports[i].fused || (reset && held_[i] >= 0)) continue;
-    if (!reset) {
-      readmit_at_[i] = 0;  // fused by the gate: disarmed, the back-off forgotten
-      readmit_interval_[i] = 0;
-    } else if (readmit_at_[i] != 0) {
-      // Let in by a reset: one update linearised far from the truth may not be enough, so it
-      // stays armed, tested again readmit_interval_ rejections from now should it fall out.
-      readmit_at_[i] = readmit_interval_[i];
-    }
+    if (!reset)
+      streaks_.disarm(i);  // fused by the gate
+    else if (streaks_.armed(i))
+      streaks_.keep_armed(i);  // let in by a reset
     fuse(z[i].output, reports[i].innovation,
          std::max(z[i].variance, options_.min_measurement_variance));
     ++counters_.fused;
@@ -268,43 +256,32 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
       rep.rejected = true;
       ++rejected;
       ++counters_.gate_rejections;
-      if (++consecutive_rejections_[i] == 1) {
-        streak_value_[i] = mz.value;
-        streak_varied_[i] = 0;
-      } else if (mz.value != streak_value_[i]) {
-        streak_varied_[i] = 1;
-      }
+      streaks_.reject(i, mz.value);
     } else {
       rep.fused = true;  // fused by update()
-      consecutive_rejections_[i] = 0;
+      streaks_.accept(i);
     }
-    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+    rep.faulty = streaks_.faulty(i, options_.max_consecutive_rejections);
   }
   return rejected;
 }
 
 void Ekf::arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count) {
-  for (std::size_t i = 0; i < count; ++i) {
-    // A reading that has not changed once in the streak is rather a frozen transmitter than a
-    // lost filter: the stuck check's to judge (StuckMonitor), from the model's drift meanwhile,
-    // which a reset fusing the frozen value would stop.
-    if (!reports[i].rejected || !reports[i].faulty || readmit_at_[i] != 0 || !streak_varied_[i])
-      continue;
-    // Due now; readmission_due() doubles the interval, so the next test is
-    // 2 x max_consecutive_rejections later, as for a point held out at a reset.
-    readmit_interval_[i] = std::max(readmit_interval_[i], options_.max_consecutive_rejections);
-    readmit_at_[i] = consecutive_rejections_[i];
-  }
+  // A reading that has not changed once in the streak is rather a frozen transmitter than a lost
+  // filter: the stuck check's to judge (StuckMonitor), from the model's drift meanwhile, which a
+  // reset fusing the frozen value would stop; arm_now() leaves it alone. Due now; readmission_due()
+  // doubles the interval, so the next test is 2 x max_consecutive_rejections later, as for a
+  // point held out at a reset.
+  for (std::size_t i = 0; i < count; ++i)
+    if (reports[i].rejected && reports[i].faulty)
+      streaks_.arm_now(i, options_.max_consecutive_rejections);
 }
 
 bool Ekf::readmission_due(std::span<const Measurement> z,
                           std::span<const MeasurementReport> reports, std::size_t count) {
   bool due = false;
   for (std::size_t i = 0; i < count; ++i) {
-    if (readmit_at_[i] == 0 || !reports[i].rejected || consecutive_rejections_[i] < readmit_at_[i])
-      continue;
-    readmit_interval_[i] = std::min(2 * readmit_interval_[i], kMaxReadmitInterval);  // back off
-    readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
+    if (!reports[i].rejected || !streaks_.take_due(i)) continue;  // take_due() backs off
     const auto o = static_cast<Eigen::Index>(z[i].output);
     ph_.noalias() = P_initial_ * H_.row(o).transpose();
     const double s0 =
@@ -334,15 +311,12 @@ void Ekf::retest_held(std::span<const Measurement> z, std::span<MeasurementRepor
     }
     rep.fused = pass;
     rep.rejected = !pass;
-    consecutive_rejections_[i] = pass ? 0 : held_[i] + 1;
-    if (!pass && readmit_at_[i] == 0) {  // armed: tested again later (readmission_due)
-      readmit_interval_[i] =
-          std::max(readmit_interval_[i], 2 * options_.max_consecutive_rejections);
-      readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
-    }
-    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+    streaks_.set_count(i, pass ? 0 : held_[i] + 1);
+    if (!pass)  // armed: tested again later (readmission_due)
+      streaks_.arm_later(i, 2 * options_.max_consecutive_rejections);
+    rep.faulty = streaks_.faulty(i, options_.max_consecutive_rejections);
     if (pass) {
-      readmit_at_[i] = 0;  // fused: disarmed (the back-off kept: this is a reset)
+      streaks_.disarm_keeping_backoff(i);  // fused (this is a reset)
       fuse(z[i].output, rep.innovation, r);
       ++counters_.fused;
     }

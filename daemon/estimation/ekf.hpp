@@ -48,6 +48,7 @@
 #include "daemon/estimation/constraint_set.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/projection.hpp"
+#include "daemon/estimation/rejection_streaks.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
 
@@ -122,7 +123,7 @@ class Ekf final : public Estimator {
   // The only available point has been rejected max_consecutive_rejections times in a row: the
   // filter is running on its model alone. Arms the point for readmission_due(), due now.
   void arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count);
-  // Whether an armed point rejected readmit_at_ times in a row passes the gate against the
+  // Whether an armed point whose test is due (streaks_) passes the gate against the
   // initial covariance (a covariance reset is due); advances the back-off of every point tested.
   bool readmission_due(std::span<const Measurement> z, std::span<const MeasurementReport> reports,
                        std::size_t count);
@@ -146,21 +147,14 @@ class Ekf final : public Estimator {
   Eigen::MatrixXd b_;
   Eigen::VectorXd max_var_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
-  std::vector<int> consecutive_rejections_;  // per measurement slot (update() keeps the order)
-  int lost_updates_ = 0;                     // consecutive updates with most points gated out
-  std::vector<int> held_;  // per slot, after a reset: its rejections in a row before, or -1
-  // Per slot, armed when a covariance reset held the point out and its re-test failed, or when
-  // it was the only available point and rejected max_consecutive_rejections times in a row: the
-  // rejections in a row at which it is next tested against the initial covariance (0:
-  // disarmed), 2 x max_consecutive_rejections later, the interval doubling after each test (a
-  // transmitter that stays wrong costs a covariance reset ever more rarely); disarmed when the
-  // gate lets it in, kept armed when a reset did (one update far from the truth may not do).
-  std::vector<int> readmit_at_, readmit_interval_;
-  static constexpr int kMaxReadmitInterval = 1 << 20;
-  // Per slot: the value of the first rejection of the current streak, and whether a later one
-  // in the streak differed from it (a lone point is armed only then: arm_lone_point()).
-  std::vector<double> streak_value_;
-  std::vector<char> streak_varied_;
+  // Per measurement slot (update() keeps the order): rejections in a row, and the re-admission
+  // schedule. A slot is armed when a covariance reset held the point out and its re-test failed,
+  // or when it was the only available point, rejected max_consecutive_rejections times in a row
+  // with a reading that moved: tested against the initial covariance 2 x
+  // max_consecutive_rejections rejections later, the interval doubling after each test.
+  RejectionStreaks streaks_;
+  int lost_updates_ = 0;       // consecutive updates with most points gated out
+  std::vector<int> held_;      // per slot, after a reset: its rejections in a row before, or -1
   std::vector<double> x_buf_;  // contiguous scratch for the integrator
 
   // Constrained mode.

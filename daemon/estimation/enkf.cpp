@@ -74,13 +74,11 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
   llt_.compute(Eigen::MatrixXd::Identity(f, f));
   ymean_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m_));
   fused_.assign(static_cast<std::size_t>(f), 0);
-  consecutive_rejections_.assign(max_measurements, 0);
+  streaks_.resize(max_measurements);
   std0_ = Eigen::VectorXd::Zero(n);
   X_kept_ = Eigen::MatrixXd::Zero(n, N);
-  streak_value_.assign(max_measurements, 0.0);
-  streak_varied_.assign(max_measurements, 0);
-  readmit_at_.assign(max_measurements, 0);
-  readmit_interval_.assign(max_measurements, 0);
+  Y_kept_ = Y_;
+  ok_kept_ = ok_;
   active_.assign(constraints_.rows(), -1);
   init_consider(model.layout());
   // Sized by a factorisation, for the same reason as llt_.
@@ -104,9 +102,7 @@ void ConstrainedEnkf::reset(std::span<const double> x0, std::span<const double> 
       X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = x0[j] + std0[j] * normal(i);
   for (std::size_t j = 0; j < n_; ++j)
     std0_(static_cast<Eigen::Index>(j)) = std0[j];
-  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
-  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
-  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);
+  streaks_.clear();
   statistics();
   if (options_.constrained) constrain({});
   statistics();
@@ -143,9 +139,7 @@ bool ConstrainedEnkf::restore(std::span<const double> x, std::span<const double>
   mean_ = X_.rowwise().mean();
   for (Eigen::Index j = 0; j < n; ++j)
     X_.row(j).array() += x[static_cast<std::size_t>(j)] - mean_(j);
-  std::fill(consecutive_rejections_.begin(), consecutive_rejections_.end(), 0);
-  std::fill(readmit_at_.begin(), readmit_at_.end(), 0);
-  std::fill(readmit_interval_.begin(), readmit_interval_.end(), 0);
+  streaks_.clear();
   active_count_ = 0;
   counters_ = counters;
   statistics();
@@ -221,8 +215,7 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
                                    std::span<MeasurementReport> reports) {
   ++counters_.updates;
   active_count_ = 0;
-  const std::size_t count =
-      std::min({z.size(), reports.size(), consecutive_rejections_.size(), fused_.size()});
+  const std::size_t count = std::min({z.size(), reports.size(), streaks_.size(), fused_.size()});
   for (std::size_t i = 0; i < count; ++i)
     reports[i] = MeasurementReport{};
   if (!evaluate_outputs(u)) return StepStatus::kModelError;
@@ -243,18 +236,13 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     gate(mz, rep);
     if (rep.rejected) {
       ++counters_.gate_rejections;
-      if (++consecutive_rejections_[i] == 1) {
-        streak_value_[i] = mz.value;
-        streak_varied_[i] = 0;
-      } else if (mz.value != streak_value_[i]) {
-        streak_varied_[i] = 1;
-      }
+      streaks_.reject(i, mz.value);
     } else {
-      consecutive_rejections_[i] = 0;
-      readmit_at_[i] = readmit_interval_[i] = 0;  // fused by the gate: disarmed
+      streaks_.accept(i);
+      streaks_.disarm(i);  // fused by the gate
       fused_[f++] = i;
     }
-    rep.faulty = consecutive_rejections_[i] >= options_.max_consecutive_rejections;
+    rep.faulty = streaks_.faulty(i, options_.max_consecutive_rejections);
   }
   for (std::size_t i = 0; i < count && available == 1 && f == 0; ++i)
     if (reports[i].rejected && readmit_lone_point(i, z[i], u, reports[i])) fused_[f++] = i;
@@ -315,16 +303,13 @@ void ConstrainedEnkf::gate(const Measurement& mz, MeasurementReport& rep) const 
 
 bool ConstrainedEnkf::readmit_lone_point(std::size_t i, const Measurement& mz,
                                          std::span<const double> u, MeasurementReport& rep) {
-  if (!rep.faulty || streak_varied_[i] == 0) return false;  // a frozen reading: the stuck check's
-  if (readmit_at_[i] == 0) {                                // armed, due now
-    readmit_interval_[i] = std::max(readmit_interval_[i], options_.max_consecutive_rejections);
-    readmit_at_[i] = consecutive_rejections_[i];
-  }
-  if (consecutive_rejections_[i] < readmit_at_[i]) return false;
-  readmit_interval_[i] = std::min(2 * readmit_interval_[i], kMaxReadmitInterval);  // back off
-  readmit_at_[i] = consecutive_rejections_[i] + readmit_interval_[i];
+  if (!rep.faulty || !streaks_.varied(i)) return false;  // a frozen reading: see ekf.cpp
+  streaks_.arm_now(i, options_.max_consecutive_rejections);
+  if (!streaks_.take_due(i)) return false;  // take_due() backs off
   // The members spread again about their mean (recentred: the mean does not move).
   X_kept_ = X_;
+  Y_kept_ = Y_;
+  ok_kept_ = ok_;
   for (std::size_t k = 0; k < N_; ++k)
     for (std::size_t j = 0; j < n_; ++j) {
       const auto J = static_cast<Eigen::Index>(j);
@@ -342,17 +327,18 @@ bool ConstrainedEnkf::readmit_lone_point(std::size_t i, const Measurement& mz,
     ymean_ = Y_.rowwise().mean();
     gate(mz, retest);
   }
-  if (!evaluated || retest.rejected) {  // put back as they were
+  if (!evaluated || retest.rejected) {  // put back as they were, with their outputs
     X_ = X_kept_;
+    Y_ = Y_kept_;
+    ok_ = ok_kept_;
     statistics();
-    evaluate_outputs(u);
     ymean_ = Y_.rowwise().mean();
     return false;
   }
   ++counters_.covariance_resets;
   --counters_.gate_rejections;
-  consecutive_rejections_[i] = 0;
-  readmit_at_[i] = readmit_interval_[i];  // let in by a reset: stays armed (see ekf.hpp)
+  streaks_.accept(i);
+  streaks_.keep_armed(i);  // let in by a reset
   retest.faulty = false;
   rep = retest;
   return true;

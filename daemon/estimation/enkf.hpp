@@ -34,6 +34,7 @@
 #include "daemon/estimation/constraint_set.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/projection.hpp"
+#include "daemon/estimation/rejection_streaks.hpp"
 #include "daemon/estimation/worker_pool.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
@@ -117,16 +118,12 @@ class ConstrainedEnkf final : public Estimator {
   Eigen::LLT<Eigen::MatrixXd> llt_;
   Eigen::VectorXd ymean_;
   std::vector<std::size_t> fused_;
-  std::vector<int> consecutive_rejections_;
-  // The lone-point re-admission: reset()'s standard deviations, the members kept while it is
-  // tested, and per slot the streak's first value, whether a later one differed, and the
-  // rejections in a row at which it is next tested (0: not armed) and the interval after that.
+  RejectionStreaks streaks_;  // per slot: rejections in a row, the lone-point re-admission
+  // The lone-point re-admission: reset()'s standard deviations, and the members with their
+  // outputs kept while it is tested.
   Eigen::VectorXd std0_;
-  Eigen::MatrixXd X_kept_;
-  std::vector<double> streak_value_;
-  std::vector<char> streak_varied_;
-  std::vector<int> readmit_at_, readmit_interval_;
-  static constexpr int kMaxReadmitInterval = 1 << 20;
+  Eigen::MatrixXd X_kept_, Y_kept_;
+  std::vector<char> ok_kept_;
   // Constraints.
   ConstraintSet constraints_;
   Eigen::MatrixXd metric_;  // diag(P) as a dense matrix for the projection
