@@ -26,11 +26,12 @@ namespace hvac_twin::est {
 // prediction at 12 cells, longer than the daemon's hang timeout.
 inline constexpr long kMaxPredictSteps = 1000;
 // F under sensitivity error control at a loose relative tolerance (0.1). Riding on the steps the
-// state alone needs, F was exact on transients (1e-4 of a tight reference) but not at rest, where
-// the state takes steps of seconds, longer than F's fast modes: measured on the heat pump at 12
-// cells (race_bench, steady-state row), 3 steps per 5 s period, F 30 % off and the outputs'
-// predicted sigmas 40 %; under error control 1e-4 and 5e-5, for 7 % more time per step on the
-// benchmark's transients (filter_transition_test checks it at rest). It also made a glitch
+// state alone needs, F was exact on transients (1e-4 of a tight reference) but not in steady
+// operation, where the state takes steps of seconds, longer than F's fast modes: measured on the
+// heat pump at 12 cells (race_bench, steady-state row), 3 steps per 5 s period, F 30 % off and the
+// outputs' predicted sigmas 40 %; under error control 1e-4 and 5e-5, for 7 % more time per step
+// on the benchmark's transients, and 24 steps instead of 3 in steady operation
+// (filter_transition_test checks F there). It also made a glitch
 // fused at the configured covariance harmless to the plain EKF (constraints_heat_pump_test).
 inline plant::IntegratorOptions filter_integrator_options() {
   plant::IntegratorOptions o;

@@ -2,13 +2,14 @@
 // fails to near zero for one sample, fused while the innovation gate is open (as at a cold
 // start, when the covariance is wide, or with a permissive gate).
 //
-// With F exact at rest (sensitivities under error control, est::filter_integrator_options) and
-// the configured initial covariance, the glitch is absorbed: both filters' updates stay in range
-// and both recover. With a covariance half as wide again (1.5 x every initial sigma, as after a
-// cold start or a covariance reset), the plain EKF's linearised update drives the liquid-line
-// enthalpy below its physical range and no prediction succeeds after; the constrained EKF
-// projects each update onto the bounds and every state stays in range. (With the less exact F at
-// rest before, the plain EKF already failed for good at the configured covariance.)
+// With F exact in steady operation (sensitivities under error control,
+// est::filter_integrator_options) and the configured initial covariance, the glitch is absorbed:
+// both filters' updates stay in range and both recover. With a covariance half as wide again (1.5 x
+// every initial sigma, as after a cold start or a covariance reset), the plain EKF's linearised
+// update drives the liquid-line enthalpy below its physical range and no prediction succeeds after;
+// the constrained EKF projects each update onto the bounds and every state stays in range. (With
+// the less exact F in steady operation before, the plain EKF already failed for good at the
+// configured covariance.)
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>

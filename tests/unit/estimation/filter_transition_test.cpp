@@ -1,6 +1,7 @@
-// The filters' state-transition matrix F at rest (est::filter_integrator_options) against a tight
-// reference. A unit at rest is where it spends most of its hours, and there the state alone lets
-// the integrator take steps of seconds, far longer than the fast modes F has to carry: without
+// The filters' state-transition matrix F in steady operation (the compressor running, settled;
+// est::filter_integrator_options) against a tight reference. A running unit spends most of its
+// hours there, and there the state alone lets the integrator take steps of seconds, far longer
+// than the fast modes F has to carry: without
 // sensitivity error control F was 30 % off the reference and the predicted output sigmas up to
 // 30-40 % (here, and race_bench's steady-state row). The filters put F under error control at a
 // loose tolerance (0.1).
@@ -34,8 +35,9 @@ Transition transition(const plant::ContinuousModel& model, const plant::Integrat
 
 }  // namespace
 
-TEST_CASE("the filters' F at rest is exact to its tolerance, and so are the predicted sigmas",
-          "[ekf][heat_pump][integrator]") {
+TEST_CASE(
+    "the filters' F in steady operation is exact to its tolerance, and so are the predicted sigmas",
+    "[ekf][heat_pump][integrator]") {
   const test::HeatPumpRig rig(test::HeatPumpRig::pinned_zone());
   const plant::ContinuousModel& model = *rig.model;
   const auto u = test::nominal_inputs();
