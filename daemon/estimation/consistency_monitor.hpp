@@ -13,7 +13,8 @@
 // ~1/k; sigmas too small: many). A non-finite test ratio (S = 0) is left out entirely.
 //
 // The window is the last W cycles (ring buffers sized at construction). A cycle without an
-// update (predict-only after a deadline overrun) is a skip(): it ages the window, adds nothing.
+// update is a skip(): it ages the window, adds nothing. (The daemon updates in every cycle,
+// late or not.)
 // Per point: k = the point's samples in the window. Over all points: the sum of a cycle's m
 // scalar NIS has mean m (each has mean 1, whatever their correlation), and over the window the
 // sum has mean K = the total number of samples, whatever m was in each cycle; the overall figure

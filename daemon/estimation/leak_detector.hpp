@@ -59,7 +59,7 @@ enum class HoldReason : std::uint8_t {
   kCompressorOff,
   kStartUp,   // the compressor started less than startup_s ago
   kCycling,   // too many compressor starts per hour
-  kDegraded,  // estimates DEGRADED (stale inputs, no measurement fused, overrun)
+  kDegraded,  // estimates degraded: stale inputs, no measurement fused, a reset, lost track
 };
 std::string_view to_string(LeakState state);
 std::string_view to_string(HoldReason reason);

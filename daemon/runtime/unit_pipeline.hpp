@@ -120,14 +120,15 @@ class UnitPipeline {
   // Keeps the cold start's state and covariance but for the model's persistent states.
   bool resume_properties(const FilterSnapshot& s);
   void save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle);
-  void step_leak_detector(dds::EstimateQuality quality, bool estimates_valid);
+  // degraded: the estimates are worse than GOOD for a reason other than lateness.
+  void step_leak_detector(bool degraded, bool estimates_valid);
   // The leak detector's state and learnt reference charges, for the log.
   [[nodiscard]] std::string describe_leak_detector() const;
   void publish_leak(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,
                     bool estimates_valid);
   void publish_health(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality);
   void bind_consistency();
-  void step_consistency(bool updated);  // updated: update() ran and filled reports_ this cycle
+  void step_consistency();  // after update() filled reports_
   void note_consistency(std::size_t figure);
   void publish_consistency(std::int64_t stamp_ns, std::uint64_t cycle);
   void note_quality(dds::EstimateQuality quality, std::uint32_t flags);
@@ -225,7 +226,7 @@ class UnitPipeline {
   bool cold_start_ = true;
   int converged_updates_ = 0;  // in a row
   static constexpr int kConvergedAfterUpdates = 12;
-  void step_convergence(bool updated);
+  void step_convergence();
 
   bool initialized_ = false;
   bool have_prev_ = false;

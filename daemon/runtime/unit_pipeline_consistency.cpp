@@ -61,9 +61,8 @@ void UnitPipeline::bind_consistency() {
   }
 }
 
-void UnitPipeline::step_consistency(bool updated) {
-  // Without an update reports_ still holds the previous cycle's reports: not a sample again.
-  if (updated && noise_) {
+void UnitPipeline::step_consistency() {
+  if (noise_) {
     // Judged against the told noise: a point whose noise had to be inflated still shows HIGH.
     for (std::size_t i = 0; i < reports_.size(); ++i) {
       told_reports_[i] = reports_[i];
@@ -71,10 +70,9 @@ void UnitPipeline::step_consistency(bool updated) {
           est::NoiseAdapter::told_test_ratio(reports_[i], z_[i].variance, told_variance_[i]);
     }
     consistency_->add(told_reports_);
-  } else if (updated) {
+  } else {
     consistency_->add(reports_);
-  } else
-    consistency_->skip();
+  }
   for (std::size_t f = 0; f <= measured_.size(); ++f)
     note_consistency(f);
 }

@@ -65,15 +65,14 @@ void UnitPipeline::bind_leak_detection(const config::LeakDetectionConfig& c) {
   leak_ = std::make_unique<est::LeakDetector>(leak_detector_options(c, nameplate_charge_));
 }
 
-void UnitPipeline::step_leak_detector(dds::EstimateQuality quality, bool estimates_valid) {
+void UnitPipeline::step_leak_detector(bool degraded, bool estimates_valid) {
   if (!estimates_valid) return;  // nothing to judge; the last report stands
   const est::LeakReport& r =
       // The leak rate with its published sigma (the model's structural wander included: nothing
       // cancels it), the charge with the filter's own: the detector compares the charge with its
       // own reference, where the model's structural offset cancels.
       leak_->step(model_time_s_, y_[leak_output_], sigma_[leak_output_], y_[charge_output_],
-                  filter_sigma_[charge_output_], u_[speed_input_],
-                  quality != dds::EstimateQuality::kGood);
+                  filter_sigma_[charge_output_], u_[speed_input_], degraded);
   if (r.reference_learned && !references_logged_) {
     // The unit as commissioned: what every later deficit is measured from.
     log_->info("unit {}: leak detector learnt its reference charges: {}", unit_.id,

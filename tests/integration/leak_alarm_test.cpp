@@ -27,8 +27,10 @@ StackOptions leaking_heat_pump() {
   StackOptions o;
   o.domain_id = kDomain;
   // 30x: 167 ms of wall time per cycle. (At 60x, 83 ms, the 12-cell model with the
-  // quality-dependent two-phase closure overran one cycle in five on an idle two-core machine,
-  // its estimates went DEGRADED and the detector rightly never learnt its references.)
+  // quality-dependent two-phase closure overran one cycle in five on an idle two-core machine.
+  // A late cycle then skipped its update, its estimates went DEGRADED and the detector held, so
+  // it never learnt its references on a busy machine. Late cycles now fuse and are judged
+  // (leak_topic_test, "late cycles still fuse..."); skipped ticks are the remaining cost of load.)
   o.time_scale = 30.0;
   o.period_s = 5.0;
   o.deadline_s = 0.16;
