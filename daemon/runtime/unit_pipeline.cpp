@@ -152,6 +152,14 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   u_prev_ = u_;
   y_.assign(layout.outputs.size(), 0.0);
   sigma_ = filter_sigma_ = y_;
+  // The unit_estimate sample: names and units bound once, values filled every cycle.
+  for (std::size_t i = 0; i < layout.outputs.size() && i < dds::kMaxUnitEstimates; ++i)
+    unit_estimate_.push_back({.name = layout.outputs[i].name, .eng_unit = layout.outputs[i].unit});
+  if (layout.outputs.size() > dds::kMaxUnitEstimates)
+    log_->warn(
+        "unit {}: the model has {} outputs; unit_estimate carries the first {} "
+        "(virtual_sensor all of them)",
+        unit_.id, layout.outputs.size(), dds::kMaxUnitEstimates);
   z_.resize(measured_.size());
   reports_.resize(measured_.size());
 
@@ -475,6 +483,16 @@ void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::Esti
                                                    .timestamp_ns = stamp_ns,
                                                    .cycle = cycle});
     }
+    for (std::size_t i = 0; i < unit_estimate_.size(); ++i) {
+      unit_estimate_[i].value = y_[i];
+      unit_estimate_[i].sigma = sigma_[i];
+    }
+    publisher_->publish(dds::UnitEstimateSample{.estimates = unit_estimate_,
+                                                .quality = quality,
+                                                .flags = flags,
+                                                .fused_points = fused_points_,
+                                                .timestamp_ns = stamp_ns,
+                                                .cycle = cycle});
   }
   for (std::size_t i = 0; i < measured_.size(); ++i) {
     const auto& b = measured_[i];

@@ -165,6 +165,7 @@ class UnitPipeline {
   modbus::DeviceStatus device_{};
   std::vector<double> u_, u_prev_, y_, sigma_;
   std::vector<double> filter_sigma_;  // sigma_ without the model's structural error (leak detector)
+  std::vector<dds::EstimateEntry> unit_estimate_;  // y_ and sigma_ as one sample, names bound
   std::vector<est::Measurement> z_;
   std::vector<est::MeasurementReport> reports_;
 

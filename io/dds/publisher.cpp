@@ -20,6 +20,7 @@ struct UnitPublisher::Wire {
   hvac_twin_EstimatorHealth health{};
   hvac_twin_LeakDiagnostic leak{};
   hvac_twin_EstimatorConsistency consistency{};
+  hvac_twin_UnitEstimate unit_estimate{};
 
   dds_entity_t writer(Topic topic) const noexcept { return writers[static_cast<int>(topic)].get(); }
 };
@@ -33,6 +34,16 @@ std::string describe_name(std::string_view what, std::string_view value) {
 
 bool finite(double x) noexcept {
   return std::isfinite(x);
+}
+
+// The fields VirtualSensor and UnitEstimate share: one cycle's quality and provenance.
+template <class Wire, class Sample>
+void fill_cycle(const Sample& s, Wire& w) noexcept {
+  w.quality = detail::to_wire(s.quality);
+  w.flags = s.flags;
+  w.fused_points = s.fused_points;
+  w.timestamp_ns = s.timestamp_ns;
+  w.cycle = s.cycle;
 }
 
 }  // namespace
@@ -80,6 +91,8 @@ UnitPublisher::UnitPublisher(Participant& participant, std::string_view topic_pr
   (void)detail::copy_bounded(w.leak.unit, unit, true);
   (void)detail::copy_bounded(w.consistency.site, site, true);
   (void)detail::copy_bounded(w.consistency.unit, unit, true);
+  (void)detail::copy_bounded(w.unit_estimate.site, site, true);
+  (void)detail::copy_bounded(w.unit_estimate.unit, unit, true);
 
   const QosPtr topic_qos = make_state_qos(kAnyPeriod);  // see make_state_qos
   const QosPtr writer_qos = make_state_qos(period);
@@ -128,11 +141,7 @@ PublishStatus UnitPublisher::publish(const VirtualSensorSample& s) noexcept {
   }
   w.value = s.value;
   w.sigma = s.sigma;
-  w.quality = detail::to_wire(s.quality);
-  w.flags = s.flags;
-  w.fused_points = s.fused_points;
-  w.timestamp_ns = s.timestamp_ns;
-  w.cycle = s.cycle;
+  fill_cycle(s, w);
   return write(wire_->writer(Topic::kVirtualSensor), &w, s.timestamp_ns);
 }
 
@@ -254,6 +263,31 @@ PublishStatus UnitPublisher::publish(const ConsistencySample& s) noexcept {
   w.timestamp_ns = s.timestamp_ns;
   w.cycle = s.cycle;
   return write(wire_->writer(Topic::kEstimatorConsistency), &w, s.timestamp_ns);
+}
+
+PublishStatus UnitPublisher::publish(const UnitEstimateSample& s) noexcept {
+  if (s.estimates.size() > kMaxUnitEstimates) return reject(PublishStatus::kInvalidValue);
+  for (const EstimateEntry& e : s.estimates) {
+    if (!finite(e.value) || !finite(e.sigma)) return reject(PublishStatus::kNonFinite);
+    if (e.sigma < 0.0) return reject(PublishStatus::kInvalidValue);
+  }
+  if (s.timestamp_ns < 0) return reject(PublishStatus::kInvalidTimestamp);
+  hvac_twin_UnitEstimate& w = wire_->unit_estimate;
+  std::size_t i = 0;
+  for (const EstimateEntry& e : s.estimates) {
+    hvac_twin_Estimate& to = w.estimates[i++];
+    if (!detail::copy_bounded(to.name, e.name, true)) return reject(PublishStatus::kInvalidName);
+    if (!detail::copy_bounded(to.eng_unit, e.eng_unit, false)) {
+      return reject(PublishStatus::kInvalidUnit);
+    }
+    to.value = e.value;
+    to.sigma = e.sigma;
+  }
+  for (std::size_t k = i; k < w.estimate_count; ++k)
+    w.estimates[k] = hvac_twin_Estimate{};  // entries past the count are zero on the wire
+  w.estimate_count = static_cast<std::uint32_t>(i);
+  fill_cycle(s, w);
+  return write(wire_->writer(Topic::kUnitEstimate), &w, s.timestamp_ns);
 }
 
 PublishStatus UnitPublisher::assert_liveliness() noexcept {

@@ -1,10 +1,12 @@
-// UnitPublisher: the DDS writers of one (site, unit). Creates the five state topics
+// UnitPublisher: the DDS writers of one (site, unit). Creates the six state topics
 // "<topic_prefix>/virtual_sensor", "<topic_prefix>/observation",
-// "<topic_prefix>/estimator_health", "<topic_prefix>/leak_diagnostic" and
-// "<topic_prefix>/estimator_consistency" with the state QoS (io/dds/qos.hpp) and one writer each.
+// "<topic_prefix>/estimator_health", "<topic_prefix>/leak_diagnostic",
+// "<topic_prefix>/estimator_consistency" and "<topic_prefix>/unit_estimate" with the state QoS
+// (io/dds/qos.hpp) and one writer each.
 //
 // Liveliness is MANUAL_BY_TOPIC: a writer is alive while it writes. The unit's cycle publishes
-// its virtual sensors, observations, consistency and health after every completed cycle; a topic
+// its virtual sensors (one sample each, and all of them in one unit_estimate), observations,
+// consistency and health after every completed cycle; a topic
 // with nothing to write in a cycle is kept alive with assert_liveliness(). A hung or killed cycle
 // then shows as missed deadlines (2.5 x period) and lost liveliness (3 x period) at every reader.
 // Checked with Cyclone DDS 0.10.2 (local and remote readers): assert_liveliness() extends the
@@ -77,6 +79,9 @@ class UnitPublisher {
   PublishStatus publish(const HealthSample& sample) noexcept;
   PublishStatus publish(const LeakDiagnosticSample& sample) noexcept;
   PublishStatus publish(const ConsistencySample& sample) noexcept;
+  // Refused whole if any entry is invalid (the entry's status) or there are more than
+  // kMaxUnitEstimates; a refused sample counts once.
+  PublishStatus publish(const UnitEstimateSample& sample) noexcept;
   // Asserts liveliness of all its writers without writing (a cycle with nothing to publish on
   // a topic). Does not revive a writer whose liveliness was already lost: write a sample for
   // that. Returns kDdsError if Cyclone refuses. Cycle thread only.

@@ -2,6 +2,8 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -23,6 +25,8 @@ bool TopicSet::contains(Topic topic) const noexcept {
       return leak_diagnostic;
     case Topic::kEstimatorConsistency:
       return estimator_consistency;
+    case Topic::kUnitEstimate:
+      return unit_estimate;
   }
   return false;
 }
@@ -35,6 +39,17 @@ struct Subscriber::Readers {
 
 namespace {
 
+// The fields VirtualSensor and UnitEstimate share: one cycle's quality and provenance.
+template <class Record, class Wire>
+void convert_cycle(const Wire& w, dds_time_t source_ts, Record& r) {
+  r.quality = detail::from_wire(w.quality);
+  r.flags = w.flags;
+  r.fused_points = w.fused_points;
+  r.timestamp_ns = w.timestamp_ns;
+  r.cycle = w.cycle;
+  r.source_timestamp_ns = source_ts;
+}
+
 VirtualSensorRecord convert(const hvac_twin_VirtualSensor& w, dds_time_t source_ts) {
   VirtualSensorRecord r;
   r.site = detail::view_bounded(w.site);
@@ -43,12 +58,7 @@ VirtualSensorRecord convert(const hvac_twin_VirtualSensor& w, dds_time_t source_
   r.value = w.value;
   r.sigma = w.sigma;
   r.eng_unit = detail::view_bounded(w.eng_unit);
-  r.quality = detail::from_wire(w.quality);
-  r.flags = w.flags;
-  r.fused_points = w.fused_points;
-  r.timestamp_ns = w.timestamp_ns;
-  r.cycle = w.cycle;
-  r.source_timestamp_ns = source_ts;
+  convert_cycle(w, source_ts, r);
   return r;
 }
 
@@ -137,6 +147,21 @@ ConsistencyRecord convert(const hvac_twin_EstimatorConsistency& w, dds_time_t so
   r.timestamp_ns = w.timestamp_ns;
   r.cycle = w.cycle;
   r.source_timestamp_ns = source_ts;
+  return r;
+}
+
+UnitEstimateRecord convert(const hvac_twin_UnitEstimate& w, dds_time_t source_ts) {
+  UnitEstimateRecord r;
+  r.site = detail::view_bounded(w.site);
+  r.unit = detail::view_bounded(w.unit);
+  const std::size_t count = std::min<std::size_t>(w.estimate_count, std::size(w.estimates));
+  r.estimates.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const hvac_twin_Estimate& e = w.estimates[i];
+    r.estimates.push_back({std::string(detail::view_bounded(e.name)), e.value, e.sigma,
+                           std::string(detail::view_bounded(e.eng_unit))});
+  }
+  convert_cycle(w, source_ts, r);
   return r;
 }
 
@@ -238,6 +263,9 @@ std::ptrdiff_t Subscriber::take(std::vector<Record>& out) {
         break;
       case Topic::kEstimatorConsistency:
         n = take_all<hvac_twin_EstimatorConsistency>(reader, out, last_error_);
+        break;
+      case Topic::kUnitEstimate:
+        n = take_all<hvac_twin_UnitEstimate>(reader, out, last_error_);
         break;
     }
     if (n < 0) return -1;

@@ -92,8 +92,25 @@ struct ConsistencyRecord {
   std::int64_t source_timestamp_ns = 0;
 };
 
+struct UnitEstimateRecord {
+  struct Entry {
+    std::string name;
+    double value = 0.0;
+    double sigma = 0.0;
+    std::string eng_unit;
+  };
+  std::string site, unit;
+  std::vector<Entry> estimates;  // the valid entries (estimate_count, at most kMaxUnitEstimates)
+  EstimateQuality quality = EstimateQuality::kNotReady;
+  std::uint32_t flags = 0;
+  std::uint64_t fused_points = 0;
+  std::int64_t timestamp_ns = 0;
+  std::uint64_t cycle = 0;
+  std::int64_t source_timestamp_ns = 0;
+};
+
 using Record = std::variant<VirtualSensorRecord, ObservationRecord, HealthRecord,
-                            LeakDiagnosticRecord, ConsistencyRecord>;
+                            LeakDiagnosticRecord, ConsistencyRecord, UnitEstimateRecord>;
 
 // Which topics to read.
 struct TopicSet {
@@ -102,6 +119,7 @@ struct TopicSet {
   bool estimator_health = true;
   bool leak_diagnostic = true;
   bool estimator_consistency = true;
+  bool unit_estimate = true;
   bool contains(Topic topic) const noexcept;
 };
 

@@ -16,6 +16,8 @@ std::string_view topic_suffix(Topic topic) noexcept {
       return "leak_diagnostic";
     case Topic::kEstimatorConsistency:
       return "estimator_consistency";
+    case Topic::kUnitEstimate:
+      return "unit_estimate";
   }
   return "unknown";
 }

@@ -11,12 +11,13 @@
 #include <cstddef>
 #include <cstdint>
 #include <iterator>
+#include <span>
 #include <string>
 #include <string_view>
 
 namespace hvac_twin::dds {
 
-// The five topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
+// The six topics. Their names are "<topic_prefix>/<topic_suffix>", e.g.
 // "hvac_twin/virtual_sensor" ('/' is legal in Cyclone DDS 0.10 topic names).
 enum class Topic : std::uint8_t {
   kVirtualSensor = 0,
@@ -24,13 +25,14 @@ enum class Topic : std::uint8_t {
   kEstimatorHealth = 2,
   kLeakDiagnostic = 3,
   kEstimatorConsistency = 4,
+  kUnitEstimate = 5,
 };
-inline constexpr Topic kAllTopics[] = {Topic::kVirtualSensor, Topic::kObservation,
-                                       Topic::kEstimatorHealth, Topic::kLeakDiagnostic,
-                                       Topic::kEstimatorConsistency};
+inline constexpr Topic kAllTopics[] = {Topic::kVirtualSensor,        Topic::kObservation,
+                                       Topic::kEstimatorHealth,      Topic::kLeakDiagnostic,
+                                       Topic::kEstimatorConsistency, Topic::kUnitEstimate};
 inline constexpr std::size_t kNumTopics = std::size(kAllTopics);
 // "virtual_sensor", "observation", "estimator_health", "leak_diagnostic",
-// "estimator_consistency". Never allocates.
+// "estimator_consistency", "unit_estimate". Never allocates.
 std::string_view topic_suffix(Topic topic) noexcept;
 // "<prefix>/<suffix>". Throws std::invalid_argument unless prefix matches [A-Za-z0-9_]+ (the
 // DdsConfig::topic_prefix rule). Allocates; creation time only.
@@ -76,6 +78,29 @@ struct VirtualSensorSample {
   std::uint64_t fused_points = 0;  // bit i: the unit's i-th measured point was fused
   std::int64_t timestamp_ns = 0;   // CLOCK_REALTIME [ns], >= 0; also the DDS source timestamp
   std::uint64_t cycle = 0;         // estimator cycle counter
+};
+
+// The most virtual sensors one UnitEstimateSample carries (IDL UNIT_ESTIMATE_MAX).
+inline constexpr std::size_t kMaxUnitEstimates = 64;
+
+// One model output in a UnitEstimateSample, as its VirtualSensorSample.
+struct EstimateEntry {
+  std::string_view name;      // 1..64 bytes, no NUL
+  double value = 0.0;         // [eng_unit]; must be finite
+  double sigma = 0.0;         // [eng_unit]; finite and >= 0
+  std::string_view eng_unit;  // 0..32 bytes
+};
+
+// Every virtual sensor of the publisher's unit from one cycle, in one sample. A sample with an
+// invalid entry is refused whole (the entry's reason); more than kMaxUnitEstimates entries is
+// kInvalidValue.
+struct UnitEstimateSample {
+  std::span<const EstimateEntry> estimates;  // in the model's output order
+  EstimateQuality quality = EstimateQuality::kNotReady;
+  std::uint32_t flags = 0;         // kFlag* bits
+  std::uint64_t fused_points = 0;  // bit i: the unit's i-th measured point was fused
+  std::int64_t timestamp_ns = 0;   // CLOCK_REALTIME [ns], >= 0; also the DDS source timestamp
+  std::uint64_t cycle = 0;
 };
 
 // One measured point in one cycle. Every double must be finite: for a point that was not read

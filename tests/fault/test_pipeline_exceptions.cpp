@@ -65,7 +65,7 @@ TEST_CASE("pipeline: polls answered busy are exception polls on the health topic
   runtime::UnitPipeline& pipeline = *owned;
   dds::Participant reader_side(cfg.dds);  // over the wire (loopback), as a dashboard reads it
   dds::Subscriber reader(reader_side, cfg.dds.topic_prefix,
-                         dds::TopicSet{false, true, true, false, false});
+                         dds::TopicSet{false, true, true, false, false, false});
   pipeline.start();
 
   std::vector<dds::HealthRecord> health;

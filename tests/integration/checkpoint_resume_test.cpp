@@ -96,8 +96,9 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
     c.domain_id = kDomain;
     return c;
   }());
-  dds::Subscriber reader(participant, "hvac_twin",
-                         dds::TopicSet{true, false, false, true, false});  // virtual_sensor, leak
+  dds::Subscriber reader(
+      participant, "hvac_twin",
+      dds::TopicSet{true, false, false, true, false, false});  // virtual_sensor, leak
 
   // First run: long enough for several checkpoints and leak decisions.
   stack.start_daemon();
@@ -293,7 +294,8 @@ TEST_CASE("a disk stalling every fsync for 1.5 s delays no cycle, checkpoints ar
   }());
   // Requests the daemon's deadline (2.5 wall periods, 1.25 s): a save on the cycle thread (two
   // fsyncs, 3 s) would miss it every time.
-  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{false, false, true, false, false},
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{false, false, true, false, false, false},
                          std::chrono::milliseconds(500));
   stack.start_daemon_under({"/usr/bin/strace", "-f", "-qq", "--seccomp-bpf", "-o", "/dev/null",
                             "-E", "ASAN_OPTIONS=detect_leaks=0", "-e", "trace=fsync", "-e",

@@ -26,7 +26,7 @@ constexpr auto kWallPeriod = std::chrono::milliseconds(100);
 constexpr std::uint32_t kWindow = 30;
 
 dds::TopicSet consistency_only() {
-  return dds::TopicSet{false, false, false, false, true};
+  return dds::TopicSet{false, false, false, false, true, false};
 }
 
 config::DdsConfig reader_config(int domain) {
@@ -233,8 +233,8 @@ TEST_CASE("adaptive noise: the filter's own NIS back near 1, the told noise stil
   };
   Stack stack("consistency-adaptive", o);
   dds::Participant participant(reader_config(o.domain_id));
-  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{false, true, false, false, true},
-                         kWallPeriod);
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{false, true, false, false, true, false}, kWallPeriod);
   stack.start_sim();
   stack.start_daemon();
   // Three windows: the first to learn the noise, then what the filter and the monitor say.

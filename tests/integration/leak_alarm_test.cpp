@@ -60,7 +60,8 @@ TEST_CASE("a leaking unit raises LEAK on the leak topic, end to end", "[integrat
     c.domain_id = kDomain;
     return c;  // lo, unicast to 127.0.0.1, multicast off
   }());
-  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{false, false, false, true, false},
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{false, false, false, true, false, false},
                          std::chrono::milliseconds(1000));
   stack.start_sim();
   stack.start_daemon();

@@ -75,8 +75,8 @@ TEST_CASE("a late-joining subscriber receives the current leak diagnosis at once
 
   const std::int64_t joined_ns = realtime_now_ns();
   dds::Participant participant(reader_config(56));
-  dds::Subscriber late(participant, "hvac_twin", dds::TopicSet{false, false, false, true, false},
-                       kWallPeriod);
+  dds::Subscriber late(participant, "hvac_twin",
+                       dds::TopicSet{false, false, false, true, false, false}, kWallPeriod);
   std::vector<dds::Record> got;
   // Transient-local, keep-last 1: the sample written before this reader existed is delivered
   // on matching; its timestamp proves it was not simply the next cycle's.
@@ -191,8 +191,8 @@ TEST_CASE("late cycles still fuse their measurements, and the leak detector judg
   };
   Stack stack("leak-late-cycles", o);
   dds::Participant participant(reader_config(kDomain));
-  dds::Subscriber reader(participant, "hvac_twin", dds::TopicSet{true, false, false, true, false},
-                         kWallPeriod);
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{true, false, false, true, false, false}, kWallPeriod);
   stack.start_sim();
   stack.start_daemon({"--fault-cycle-delay-ms", "60"});
 

@@ -16,7 +16,9 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "io/dds/types.hpp"
@@ -75,12 +77,17 @@ TEST_CASE("estimated internal gains and mass temperature follow the simulated tr
   ErrorStats gains, mass, air;
   int estimates = 0, good = 0;
   nlohmann::json last_health;
+  // cycle -> name -> (value, sigma, quality) from virtual_sensor, to compare unit_estimate with.
+  std::map<std::uint64_t, std::map<std::string, std::tuple<double, double, std::string>>> by_cycle;
+  std::vector<nlohmann::json> unit_estimates;
   for (const auto& s : samples) {
     if (s["topic"] == "estimator_health") last_health = s;
+    if (s["topic"] == "unit_estimate") unit_estimates.push_back(s);
     if (s["topic"] != "virtual_sensor") continue;
     const auto t = s["timestamp_ns"].get<std::int64_t>();
     const std::string name = s["name"];
     const double v = s["value"], sigma = s["sigma"];
+    by_cycle[s["cycle"].get<std::uint64_t>()][name] = {v, sigma, s["quality"]};
     if (name == "zone_air_temperature") {
       ++estimates;
       if (s["quality"] == "GOOD") ++good;
@@ -117,6 +124,26 @@ TEST_CASE("estimated internal gains and mass temperature follow the simulated tr
   CHECK(last_health["overruns"] == 0);
   CHECK(last_health["numerical_resets"] == 0);
   CHECK(good >= estimates * 95 / 100);
+  // unit_estimate: one sample per cycle with every virtual sensor of that cycle, exactly as on
+  // virtual_sensor (issue 17, item 12).
+  int matched = 0, mismatched = 0;
+  for (const auto& u : unit_estimates) {
+    const auto it = by_cycle.find(u["cycle"].get<std::uint64_t>());
+    if (it == by_cycle.end()) continue;  // the echo started or stopped in between
+    bool same = u["estimates"].size() == it->second.size();
+    for (const auto& e : u["estimates"]) {
+      const auto vs = it->second.find(e["name"].get<std::string>());
+      same = same && vs != it->second.end() && std::get<0>(vs->second) == e["value"] &&
+             std::get<1>(vs->second) == e["sigma"] && std::get<2>(vs->second) == u["quality"];
+    }
+    (same ? matched : mismatched) += 1;
+  }
+  INFO("unit_estimate samples " << unit_estimates.size() << ": " << matched
+                                << " match their cycle's "
+                                << "virtual sensors, " << mismatched << " do not");
+  CHECK(matched >= estimates * 9 / 10);
+  CHECK(mismatched == 0);
+  if (!unit_estimates.empty()) CHECK(unit_estimates.back()["estimates"].size() == 4);
 }
 
 TEST_CASE("estimator.type selects the filter the daemon runs, end to end", "[integration][zone]") {

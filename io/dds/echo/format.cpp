@@ -127,6 +127,23 @@ Json to_json(const ConsistencyRecord& r) {
               {"cycle", r.cycle}};
 }
 
+Json to_json(const UnitEstimateRecord& r) {
+  Json estimates = Json::array();
+  for (const auto& e : r.estimates)
+    estimates.push_back(
+        Json{{"name", e.name}, {"value", e.value}, {"sigma", e.sigma}, {"eng_unit", e.eng_unit}});
+  return Json{{"topic", "unit_estimate"},
+              {"site", r.site},
+              {"unit", r.unit},
+              {"quality", to_string(r.quality)},
+              {"flags", r.flags},
+              {"flag_names", flag_names(r.flags)},
+              {"fused_points", r.fused_points},
+              {"estimates", estimates},
+              {"timestamp_ns", r.timestamp_ns},
+              {"cycle", r.cycle}};
+}
+
 // "HH:MM:SS" of a CLOCK_REALTIME timestamp in local time.
 std::string clock_time(std::int64_t timestamp_ns) {
   const std::time_t seconds = static_cast<std::time_t>(timestamp_ns / 1'000'000'000);
@@ -234,6 +251,16 @@ std::string to_text(const ConsistencyRecord& r) {
       clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), r.point.c_str(), r.mean_nis, r.band_low,
       r.band_high, static_cast<unsigned>(r.samples), static_cast<unsigned>(r.window_cycles),
       100.0 * r.rejected_share, std::string(to_string(r.verdict)).c_str());
+  return written(line, n);
+}
+
+// One line per sample, the estimates' names only: their values are on virtual_sensor's lines.
+std::string to_text(const UnitEstimateRecord& r) {
+  char line[512];
+  const int n = std::snprintf(
+      line, sizeof line, "%s %-8s unit   cycle %-8llu %zu estimates  %s%s",
+      clock_time(r.timestamp_ns).c_str(), r.unit.c_str(), static_cast<unsigned long long>(r.cycle),
+      r.estimates.size(), std::string(to_string(r.quality)).c_str(), flags_suffix(r.flags).c_str());
   return written(line, n);
 }
 

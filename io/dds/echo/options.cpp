@@ -22,7 +22,7 @@ T parse_number(std::string_view option, std::string_view text) {
 }
 
 TopicSet parse_topics(std::string_view list) {
-  TopicSet set{false, false, false, false, false};
+  TopicSet set{false, false, false, false, false, false};
   const auto select = [&set](Topic topic) {
     switch (topic) {
       case Topic::kVirtualSensor:
@@ -40,6 +40,9 @@ TopicSet parse_topics(std::string_view list) {
       case Topic::kEstimatorConsistency:
         set.estimator_consistency = true;
         break;
+      case Topic::kUnitEstimate:
+        set.unit_estimate = true;
+        break;
     }
   };
   while (!list.empty()) {
@@ -54,7 +57,7 @@ TopicSet parse_topics(std::string_view list) {
     } else {
       throw UsageError("--topics: unknown topic '" + std::string(item) +
                        "' (virtual_sensor, observation, estimator_health, leak_diagnostic, "
-                       "estimator_consistency, all)");
+                       "estimator_consistency, unit_estimate, all)");
     }
     list = comma == std::string_view::npos ? std::string_view{} : list.substr(comma + 1);
   }
@@ -184,10 +187,11 @@ Options:
   --peer ADDR          unicast discovery peer; repeatable (default 127.0.0.1)
   --multicast          allow multicast discovery (default: off, unicast to the peers)
   --topic-prefix P     topics are P/virtual_sensor, P/observation, P/estimator_health,
-                       P/leak_diagnostic, P/estimator_consistency (default hvac_twin)
+                       P/leak_diagnostic, P/estimator_consistency, P/unit_estimate
+                       (default hvac_twin)
   --topics LIST        comma-separated subset of virtual_sensor, observation,
-                       estimator_health, leak_diagnostic, estimator_consistency
-                       (default all)
+                       estimator_health, leak_diagnostic, estimator_consistency,
+                       unit_estimate (default all)
   --count N            exit after N samples
   --duration S         exit after S seconds
   --format json|text   json: one JSON object per sample with a "topic" field (default);

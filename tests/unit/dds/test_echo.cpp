@@ -251,6 +251,48 @@ TEST_CASE("echo formats the estimator consistency: JSON every field, text the ve
   CHECK(parse({}).topics.contains(Topic::kEstimatorConsistency));  // all by default
 }
 
+TEST_CASE("echo formats the unit estimate: JSON every entry, text one line per cycle",
+          "[dds][echo]") {
+  UnitEstimateRecord r;
+  r.site = "site";
+  r.unit = "hp1";
+  r.estimates = {{"charge", 0.5123, 0.02, "kg"}, {"superheat", 6.25, 0.4, "K"}};
+  r.quality = EstimateQuality::kDegraded;
+  r.flags = kFlagDeadlineOverrun;
+  r.fused_points = 0x7F;
+  r.timestamp_ns = 1'700'000'405'000'000'000;
+  r.cycle = 77;
+  const json j = json::parse(echo::to_json_line(r));
+  CHECK(j.at("topic") == "unit_estimate");
+  CHECK(j.at("site") == "site");
+  CHECK(j.at("unit") == "hp1");
+  CHECK(j.at("quality") == "DEGRADED");
+  CHECK(j.at("flags") == kFlagDeadlineOverrun);
+  CHECK(j.at("flag_names") == json::array({"deadline_overrun"}));
+  CHECK(j.at("fused_points") == 0x7F);
+  REQUIRE(j.at("estimates").size() == 2);
+  CHECK(j.at("estimates")[1].at("name") == "superheat");
+  CHECK(j.at("estimates")[1].at("value").get<double>() == 6.25);
+  CHECK(j.at("estimates")[1].at("sigma").get<double>() == 0.4);
+  CHECK(j.at("estimates")[1].at("eng_unit") == "K");
+  CHECK(j.at("estimates")[0].at("value").get<double>() == 0.5123);
+  CHECK(j.at("timestamp_ns").get<std::int64_t>() == r.timestamp_ns);
+  CHECK(j.at("cycle") == 77);
+  CHECK(j.size() == 10);
+
+  setenv("TZ", "UTC", 1);
+  tzset();
+  const std::string text = echo::to_text_line(r);
+  INFO(text);
+  CHECK(text.rfind("22:20:05 hp1      unit   cycle 77 ", 0) == 0);
+  CHECK(text.find("2 estimates  DEGRADED  [deadline_overrun]") != std::string::npos);
+
+  const auto only = parse({"--topics", "unit_estimate"});
+  CHECK(only.topics.contains(Topic::kUnitEstimate));
+  CHECK_FALSE(only.topics.contains(Topic::kVirtualSensor));
+  CHECK(parse({}).topics.contains(Topic::kUnitEstimate));  // all by default
+}
+
 TEST_CASE("hvac-twin-echo prints every sample as a JSON line over loopback", "[dds][echo]") {
   const auto config = test::loopback_config(kDomainEchoJson);
   Participant participant(config);

@@ -2,6 +2,7 @@
 // (Cyclone's own buffers come from malloc and its serdata pool, outside this count.)
 #include <catch2/catch.hpp>
 #include <string>
+#include <vector>
 
 #include "dds_test_support.hpp"
 #include "io/dds/publisher.hpp"
@@ -35,16 +36,21 @@ TEST_CASE("publish allocates nothing", "[dds][allocation]") {
   consistency.mean_nis = 1.02;
   VirtualSensorSample bad = vs;
   bad.name = too_long;
+  const std::vector<EstimateEntry> entries(
+      24,
+      EstimateEntry{.name = "condenser_pressure", .value = 2.5e6, .sigma = 1e3, .eng_unit = "Pa"});
+  UnitEstimateSample all_outputs{.estimates = entries};
 
   const auto publish_all = [&](std::uint64_t cycle) {
-    vs.cycle = obs.cycle = health.cycle = consistency.cycle = cycle;
+    vs.cycle = obs.cycle = health.cycle = consistency.cycle = all_outputs.cycle = cycle;
     vs.timestamp_ns = obs.timestamp_ns = health.timestamp_ns = consistency.timestamp_ns =
-        test::now_ns();
+        all_outputs.timestamp_ns = test::now_ns();
     vs.value = static_cast<double>(cycle);
     bool ok = publisher.publish(vs) == PublishStatus::kOk;
     ok = ok && publisher.publish(obs) == PublishStatus::kOk;
     ok = ok && publisher.publish(health) == PublishStatus::kOk;
     ok = ok && publisher.publish(consistency) == PublishStatus::kOk;
+    ok = ok && publisher.publish(all_outputs) == PublishStatus::kOk;
     ok = ok && publisher.publish(bad) == PublishStatus::kInvalidName;
     ok = ok && publisher.assert_liveliness() == PublishStatus::kOk;
     return ok;

@@ -303,7 +303,7 @@ TEST_CASE("the estimator consistency round-trips, keyed by point, and is guarded
   Participant reader_side(config);
   UnitPublisher publisher(writer_side, config.topic_prefix, "site", "hp-1", 1s);
   Subscriber subscriber(reader_side, config.topic_prefix,
-                        TopicSet{false, false, false, false, true}, 1s);
+                        TopicSet{false, false, false, false, true, false}, 1s);
   const std::int64_t t0 = test::now_ns();
 
   ConsistencySample point;
