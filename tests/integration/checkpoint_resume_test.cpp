@@ -230,6 +230,58 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
   stack.daemon().wait(10s);
 }
 
+// A state the model cannot integrate from (resumed here from a checkpoint whose charge is 0.3 kg
+// against pressures and coil masses of 0.5 kg: the model's right-hand side fails at the first
+// call). Every prediction fails, keeping x; no update can move it (the output Jacobian fails
+// there too). After UnitPipeline::kRestartAfterFailedPredictions (6) in a row the estimator
+// restarts from the measured conditions, logged once, flagged, and estimates again.
+TEST_CASE("a state the model cannot integrate from: six failed predictions, then a restart",
+          "[integration][checkpoint]") {
+  StackOptions o = resume_options();
+  o.domain_id = 85;
+  Stack stack("ckpt-unresolvable", o);
+  stack.start_sim();
+  dds::Participant participant([&] {
+    config::DdsConfig c;
+    c.domain_id = o.domain_id;
+    return c;
+  }());
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{true, false, false, false, false, false});
+  stack.start_daemon();
+  const std::string ckpt = stack.path("state/hp1.ckpt");
+  REQUIRE(eventually([&] { return std::filesystem::exists(ckpt); }, 30s));
+  stack.daemon().signal(SIGKILL);
+  REQUIRE(stack.daemon().wait(5s).has_value());
+  const auto charge = *plant::create_model("heat_pump_r32", {})->layout().state("charge");
+  rewrite_checkpoint(ckpt, [&](runtime::FilterSnapshot& c) { c.x[charge] = 0.3; });
+
+  std::vector<dds::Record> drain;
+  reader.take(drain);
+  const std::size_t first_run_bytes = stack.daemon().err().size();
+  stack.start_daemon();
+  const std::string restarted = "predictions in a row failed; the estimator restarts";
+  Seen after;
+  watch(reader, after, 12s);  // 24 cycles (a restart settles the model: slow under ASan)
+  const std::string log = stack.daemon().err().substr(first_run_bytes);
+  INFO("run from the unresolvable checkpoint:\n" << log);
+  CHECK_THAT(log, Catch::Contains("resumed from checkpoint"));
+  CHECK_THAT(log, Catch::Contains("charge 0.3000 kg"));
+  // One restart, from the measured conditions, logged once.
+  CHECK(log.find(restarted) != std::string::npos);
+  CHECK(log.find(restarted) == log.rfind(restarted));
+  CHECK_THAT(log, Catch::Contains("(restart 1 since start-up)"));
+  // Nothing was published from the unresolvable state (its outputs cannot be evaluated either):
+  // the first charge estimate is the restarted filter's, converging again, near the nameplate.
+  REQUIRE(after.first_charge.has_value());
+  CHECK((after.first_charge->flags & dds::kFlagColdStart) != 0);
+  CHECK(after.first_charge->value == Approx(0.5).margin(0.1));
+  REQUIRE(after.charge.has_value());
+  CHECK(after.charge->quality != dds::EstimateQuality::kNotReady);
+  stack.daemon().signal(SIGTERM);
+  CHECK(stack.daemon().wait(10s) == 0);
+}
+
 TEST_CASE("fsync failing with EIO keeps the daemon running and the previous checkpoint",
           "[integration][checkpoint]") {
   if (!strace_works()) {
