@@ -38,6 +38,13 @@ StackOptions resume_options() {
   return o;
 }
 
+// A reader's DDS configuration: lo, unicast to 127.0.0.1, multicast off (the defaults).
+config::DdsConfig loopback_dds(int domain) {
+  config::DdsConfig c;
+  c.domain_id = domain;
+  return c;
+}
+
 // The newest charge estimate and leak diagnosis of one daemon run, from cycle `min_cycle` on.
 struct Seen {
   std::optional<dds::VirtualSensorRecord> charge;
@@ -91,11 +98,7 @@ TEST_CASE("a daemon killed with SIGKILL resumes from its checkpoint, without it,
           "[integration][checkpoint]") {
   Stack stack("resume", resume_options());
   stack.start_sim();
-  dds::Participant participant([] {
-    config::DdsConfig c;
-    c.domain_id = kDomain;
-    return c;
-  }());
+  dds::Participant participant(loopback_dds(kDomain));
   dds::Subscriber reader(
       participant, "hvac_twin",
       dds::TopicSet{true, false, false, true, false, false});  // virtual_sensor, leak
@@ -241,11 +244,7 @@ TEST_CASE("a state the model cannot integrate from: six failed predictions, then
   o.domain_id = 85;
   Stack stack("ckpt-unresolvable", o);
   stack.start_sim();
-  dds::Participant participant([&] {
-    config::DdsConfig c;
-    c.domain_id = o.domain_id;
-    return c;
-  }());
+  dds::Participant participant(loopback_dds(o.domain_id));
   dds::Subscriber reader(participant, "hvac_twin",
                          dds::TopicSet{true, false, false, false, false, false});
   stack.start_daemon();
@@ -339,11 +338,7 @@ TEST_CASE("a disk stalling every fsync for 1.5 s delays no cycle, checkpoints ar
   o.domain_id = 118;
   Stack stack("ckpt-stall", o);
   stack.start_sim();
-  dds::Participant participant([&] {
-    config::DdsConfig c;
-    c.domain_id = o.domain_id;
-    return c;
-  }());
+  dds::Participant participant(loopback_dds(o.domain_id));
   // Requests the daemon's deadline (2.5 wall periods, 1.25 s): a save on the cycle thread (two
   // fsyncs, 3 s) would miss it every time.
   dds::Subscriber reader(participant, "hvac_twin",
