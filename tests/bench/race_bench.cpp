@@ -47,6 +47,7 @@
 #include "plant_models/catalog.hpp"
 #include "plant_models/heat_pump/hp_layout.hpp"
 #include "tests/bench/heat_pump_scenario.hpp"
+#include "tests/support/transition_distance.hpp"
 
 using namespace hvac_twin;
 using Clock = std::chrono::steady_clock;
@@ -157,21 +158,8 @@ double covariance_error(const Eigen::MatrixXd& A, const Eigen::MatrixXd& A_ref) 
 // Error of F against Fref (n x n, column-major) on D^-1 F D, D = diag(scale).
 FError f_error(const std::vector<double>& F, const std::vector<double>& Fref,
                const std::vector<double>& scale) {
-  const std::size_t n = scale.size();
-  double num = 0.0, den = 0.0, worst = 0.0;
-  for (std::size_t c = 0; c < n; ++c) {
-    double col = 0.0, err = 0.0;
-    for (std::size_t r = 0; r < n; ++r) {
-      const double w = scale[c] / scale[r];
-      const double d = (F[c * n + r] - Fref[c * n + r]) * w, ref = Fref[c * n + r] * w;
-      num += d * d;
-      den += ref * ref;
-      col = std::max(col, std::abs(ref));
-      err = std::max(err, std::abs(d));
-    }
-    worst = std::max(worst, err / std::max(col, 1e-300));
-  }
-  return {std::sqrt(num / std::max(den, 1e-300)), worst};
+  const test::TransitionError e = test::transition_error(F, Fref, scale);
+  return {e.relative, e.worst};
 }
 
 // The F paths, their integrators and what they measured.

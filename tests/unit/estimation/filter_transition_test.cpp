@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "daemon/estimation/estimator.hpp"
+#include "tests/support/transition_distance.hpp"
 #include "tests/unit/plant_models/heat_pump_fixture.hpp"
 
 using namespace hvac_twin;
@@ -68,11 +69,10 @@ TEST_CASE(
     scale(i) = s.abs_tol / filters.rel_tol;
     s0(i) = s.initial_std;
   }
-  const auto dimensionless = [&](const Eigen::MatrixXd& F) {
-    return Eigen::MatrixXd(scale.cwiseInverse().asDiagonal() * F * scale.asDiagonal());
-  };
   const auto distance = [&](const Transition& t) {
-    return (dimensionless(t.F) - dimensionless(ref.F)).norm() / dimensionless(ref.F).norm();
+    const auto N = static_cast<std::size_t>(n);
+    return test::transition_error({t.F.data(), N * N}, {ref.F.data(), N * N}, {scale.data(), N})
+        .relative;
   };
   // What the filter publishes: the outputs' predicted sigmas sqrt(diag(H F P F' H')), P from the
   // initial sigmas.

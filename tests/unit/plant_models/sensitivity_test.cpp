@@ -13,6 +13,7 @@
 #include "plant_models/catalog.hpp"
 #include "plant_models/core/ad_model.hpp"
 #include "plant_models/core/integrator.hpp"
+#include "tests/support/transition_distance.hpp"
 
 using namespace hvac_twin::plant;
 
@@ -75,15 +76,7 @@ IntegratorOptions sensitivities(SensitivityMethod method, double rel_tol, bool e
 // Relative Frobenius distance of D^-1 F D from D^-1 R D, D = diag(scale).
 double distance(const std::vector<double>& F, const std::vector<double>& R,
                 const std::vector<double>& scale) {
-  const std::size_t n = scale.size();
-  double num = 0.0, den = 0.0;
-  for (std::size_t c = 0; c < n; ++c)
-    for (std::size_t r = 0; r < n; ++r) {
-      const double w = scale[c] / scale[r];
-      num += (F[c * n + r] - R[c * n + r]) * (F[c * n + r] - R[c * n + r]) * w * w;
-      den += R[c * n + r] * R[c * n + r] * w * w;
-    }
-  return std::sqrt(num / den);
+  return hvac_twin::test::transition_error(F, R, scale).relative;
 }
 
 }  // namespace
