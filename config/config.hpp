@@ -185,6 +185,9 @@ struct RuntimeConfig {
   bool hang_exit = true;
   int overruns_before_watchdog_stop = 3;  // consecutive overruns after which WATCHDOG=1 stops
   std::string log_level = "info";         // trace|debug|info|warn|error
+  // Per unit, the disk its recording of every cycle's point snapshot may use, in
+  // <state_directory>/recordings (hvac-twin-replay reads it) [MiB]; 0: no recording.
+  std::int64_t recording_budget_mib = 0;
 };
 
 struct Config {

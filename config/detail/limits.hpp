@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace hvac_twin::config::detail {
 
@@ -35,5 +36,8 @@ inline constexpr std::size_t kMaxMeasuredPoints = 64;  // per unit
 // when the state has no finite range.
 inline constexpr double kProcessNoiseSpanS = 3600.0;
 inline constexpr double kMaxUnboundedStd = 1e6;
+
+// A unit's recording budget: up to 1 TiB [MiB].
+inline constexpr std::int64_t kMaxRecordingBudgetMib = 1 << 20;
 
 }  // namespace hvac_twin::config::detail

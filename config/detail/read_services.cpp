@@ -234,6 +234,7 @@ RuntimeSection read_runtime(const Ref& ref, Errors& errors) {
     out.hang_timeout_s = c.hang_timeout_s;
   r.boolean("hang_exit", c.hang_exit);
   r.integer("overruns_before_watchdog_stop", c.overruns_before_watchdog_stop, 1, 1000);
+  r.integer("recording_budget_mib", c.recording_budget_mib, 0, kMaxRecordingBudgetMib);
   if (const Ref v = r.get("log_level"); v.present()) {
     if (const auto i = read_choice(v, errors, kLogLevelNames))
       c.log_level = std::string(kLogLevelNames[*i]);

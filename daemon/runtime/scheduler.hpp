@@ -17,6 +17,9 @@ struct Tick {
   std::int64_t due_ns = 0;             // CLOCK_MONOTONIC [ns]
   std::int64_t woke_ns = 0;            // when wait_next() returned [ns]
   std::uint64_t ticks_since_last = 1;  // k - previous k (> 1 when ticks were skipped)
+  // The cycle's CLOCK_REALTIME stamp [ns]; 0 (the scheduler's): the cycle reads the clock.
+  // A replay sets the recorded one.
+  std::int64_t wall_ns = 0;
 };
 
 class FixedRateScheduler {

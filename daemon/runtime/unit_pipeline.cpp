@@ -6,9 +6,11 @@
 #include <limits>
 #include <stdexcept>
 
+#include "config/enum_names.hpp"
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/enkf.hpp"
 #include "daemon/runtime/clock.hpp"
+#include "io/modbus/poller.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/core/settling.hpp"
 
@@ -74,9 +76,38 @@ std::unique_ptr<est::Estimator> make_filter(const plant::ContinuousModel& model,
 
 }  // namespace
 
+UnitIo live_io(const config::Config& config, std::size_t unit_index, dds::Participant& participant,
+               std::shared_ptr<spdlog::logger> log) {
+  const config::UnitConfig& unit = config.units.at(unit_index);
+  const auto wall_period = std::chrono::nanoseconds(
+      std::llround(unit.estimator.period_s / config.runtime.time_scale * 1e9));
+  return UnitIo{.source =
+                    [&unit, log] {
+                      return std::make_unique<modbus::Poller>(
+                          unit.modbus, unit.points,
+                          [log, id = unit.id, host = unit.modbus.host,
+                           port = unit.modbus.port](const modbus::Event& e) {
+                            const bool bad = e.kind == modbus::EventKind::kDisconnected ||
+                                             e.kind == modbus::EventKind::kConnectFailed;
+                            log->log(bad ? spdlog::level::warn : spdlog::level::info,
+                                     "unit {}: modbus {}:{}: {}", id, host, port, e.message);
+                          });
+                    },
+                .sink =
+                    [&config, &participant, &unit, wall_period](bool leak_diagnostic) {
+                      return std::make_unique<dds::UnitPublisher>(
+                          participant, config.dds.topic_prefix, config.site_id, unit.id,
+                          wall_period, leak_diagnostic);
+                    }};
+}
+
 UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
                            dds::Participant& participant, std::shared_ptr<spdlog::logger> log,
                            CycleHooks* hooks)
+    : UnitPipeline(config, unit_index, live_io(config, unit_index, participant, log), log, hooks) {}
+
+UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index, const UnitIo& io,
+                           std::shared_ptr<spdlog::logger> log, CycleHooks* hooks)
     : unit_(config.units.at(unit_index)),
       site_(config.site_id),
       log_(std::move(log)),
@@ -163,16 +194,9 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   z_.resize(measured_.size());
   reports_.resize(measured_.size());
 
-  poller_ =
-      std::make_unique<modbus::Poller>(unit_.modbus, unit_.points, [this](const modbus::Event& e) {
-        const bool bad = e.kind == modbus::EventKind::kDisconnected ||
-                         e.kind == modbus::EventKind::kConnectFailed;
-        log_->log(bad ? spdlog::level::warn : spdlog::level::info, "unit {}: modbus {}:{}: {}",
-                  unit_.id, unit_.modbus.host, unit_.modbus.port, e.message);
-      });
-  publisher_ = std::make_unique<dds::UnitPublisher>(
-      participant, config.dds.topic_prefix, site_, unit_.id,
-      std::chrono::nanoseconds(wall_period_ns_), leak_ != nullptr);
+  poller_ = io.source();
+  publisher_ = io.sink(leak_ != nullptr);
+  if (config.runtime.recording_budget_mib > 0) open_recording(config);
 }
 
 UnitPipeline::~UnitPipeline() {
@@ -367,8 +391,10 @@ void UnitPipeline::step_track(const est::TrackStep& s, std::uint32_t& flags) {
 
 CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   const std::int64_t start = monotonic_ns();
-  const std::int64_t stamp = realtime_ns();
+  const std::int64_t stamp = tick.wall_ns != 0 ? tick.wall_ns : realtime_ns();
   poller_->snapshot(samples_, start, &device_);
+  if (recorder_)
+    recorder_->submit(tick.index, tick.ticks_since_last, stamp, device_.connected, samples_, start);
   CycleOutcome out;
   std::uint32_t flags = 0;
   const bool inputs_ready = read_inputs(flags);
@@ -465,6 +491,21 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     save_checkpoint(stamp, tick.index);
   }
   return out;
+}
+
+void UnitPipeline::open_recording(const config::Config& config) {
+  recording::RecordingHeader h{.site = site_,
+                               .unit = unit_.id,
+                               .model = unit_.model.type,
+                               .period_s = period_s_,
+                               .run_ns = realtime_ns()};
+  for (const auto& p : unit_.points)
+    h.points.push_back({p.name, p.unit, std::string(config::to_string(p.role))});
+  const auto budget = static_cast<std::uint64_t>(config.runtime.recording_budget_mib) << 20;
+  recorder_ = std::make_unique<recording::Recorder>(config.state_directory + "/recordings",
+                                                    std::move(h), budget, log_);
+  log_->info("unit {}: recording every cycle in {} (at most {} MiB)", unit_.id,
+             recorder_->directory(), config.runtime.recording_budget_mib);
 }
 
 void UnitPipeline::publish(std::int64_t stamp_ns, std::uint64_t cycle, dds::EstimateQuality quality,

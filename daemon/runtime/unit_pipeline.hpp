@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -27,13 +28,15 @@
 #include "daemon/estimation/noise_adapter.hpp"
 #include "daemon/estimation/stuck_monitor.hpp"
 #include "daemon/estimation/track_monitor.hpp"
+#include "daemon/recording/recorder.hpp"
 #include "daemon/runtime/checkpoint_store.hpp"
 #include "daemon/runtime/checkpoint_writer.hpp"
 #include "daemon/runtime/cycle_hooks.hpp"
 #include "daemon/runtime/scheduler.hpp"
 #include "io/dds/participant.hpp"
 #include "io/dds/publisher.hpp"
-#include "io/modbus/poller.hpp"
+#include "io/dds/unit_sink.hpp"
+#include "io/modbus/point_source.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/model.hpp"
 
@@ -56,9 +59,23 @@ struct CycleOutcome {
   std::int64_t cycle_ns = 0;
 };
 
+// Where a pipeline reads its points and writes its samples, made by the constructor once the
+// model is built. The daemon's: the Modbus Poller and the DDS UnitPublisher (live_io()); the
+// replay's: a recording and a CSV writer.
+struct UnitIo {
+  std::function<std::unique_ptr<modbus::PointSource>()> source;
+  // leak_diagnostic: the unit's model estimates a leak rate (leak_diagnostic samples follow).
+  std::function<std::unique_ptr<dds::UnitSink>(bool leak_diagnostic)> sink;
+};
+// The daemon's: a Modbus Poller of the unit's device logging its events, and DDS writers.
+UnitIo live_io(const config::Config& config, std::size_t unit_index, dds::Participant& participant,
+               std::shared_ptr<spdlog::logger> log);
+
 class UnitPipeline {
  public:
   UnitPipeline(const config::Config& config, std::size_t unit_index, dds::Participant& participant,
+               std::shared_ptr<spdlog::logger> log, CycleHooks* hooks = nullptr);
+  UnitPipeline(const config::Config& config, std::size_t unit_index, const UnitIo& io,
                std::shared_ptr<spdlog::logger> log, CycleHooks* hooks = nullptr);
   ~UnitPipeline();
   UnitPipeline(const UnitPipeline&) = delete;
@@ -146,8 +163,8 @@ class UnitPipeline {
 
   std::unique_ptr<plant::ContinuousModel> model_;
   std::unique_ptr<est::Estimator> filter_;
-  std::unique_ptr<modbus::Poller> poller_;
-  std::unique_ptr<dds::UnitPublisher> publisher_;
+  std::unique_ptr<modbus::PointSource> poller_;
+  std::unique_ptr<dds::UnitSink> publisher_;
 
   void initialize();
   // The filter from the model's guess at the current measured conditions (the first cycle, and
@@ -220,6 +237,10 @@ class UnitPipeline {
   FilterSnapshot snapshot_;  // sized once; refilled in place before every save
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;  // after the store: stopped before it
   std::uint64_t cycles_since_checkpoint_ = 0;
+
+  // The recording of every cycle's snapshot (runtime.recording_budget_mib > 0), null when off.
+  std::unique_ptr<recording::Recorder> recorder_;
+  void open_recording(const config::Config& config);
   // Flag cold_start: the filter started (or restarted) from the measured conditions and has not
   // converged yet. Cleared once the settling hold is over and every available point was fused
   // (or is a reported fault) kConvergedAfterUpdates updates in a row. A resume from a

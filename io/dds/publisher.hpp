@@ -29,33 +29,11 @@
 
 #include "io/dds/participant.hpp"
 #include "io/dds/types.hpp"
+#include "io/dds/unit_sink.hpp"
 
 namespace hvac_twin::dds {
 
-enum class PublishStatus : std::uint8_t {
-  kOk = 0,
-  kNonFinite,         // a double was NaN or infinite: not published (design: NaN never published)
-  kInvalidValue,      // sigma, innovation_variance, test_ratio or a cycle time was negative
-                      // (or a consistency figure negative, its rejected_share above 1)
-  kInvalidName,       // name/point empty, longer than kMaxNameLength or containing NUL
-  kInvalidUnit,       // eng_unit longer than kMaxEngUnitLength or containing NUL
-  kInvalidTimestamp,  // timestamp_ns negative
-  kDdsError,          // Cyclone refused the write (see PublisherStats::last_dds_error)
-};
-std::string_view to_string(PublishStatus status) noexcept;
-
-// Counters since construction. Every refused sample counts once in exactly one counter.
-struct PublisherStats {
-  std::uint64_t published = 0;
-  std::uint64_t rejected_non_finite = 0;
-  std::uint64_t rejected_invalid =
-      0;  // kInvalidValue, kInvalidName, kInvalidUnit, kInvalidTimestamp
-  std::uint64_t dds_errors = 0;
-  std::int32_t last_dds_error = 0;  // last Cyclone return code (< 0), 0 if none
-  std::uint64_t rejected() const noexcept { return rejected_non_finite + rejected_invalid; }
-};
-
-class UnitPublisher {
+class UnitPublisher final : public UnitSink {
  public:
   // site, unit: keys of every sample, 1..kMaxNameLength bytes. period: the unit's wall-clock
   // cycle period (EstimatorConfig::period_s / RuntimeConfig::time_scale), > 0.
@@ -66,28 +44,28 @@ class UnitPublisher {
   UnitPublisher(Participant& participant, std::string_view topic_prefix, std::string_view site,
                 std::string_view unit, std::chrono::nanoseconds period,
                 bool leak_diagnostic = true);
-  ~UnitPublisher();
+  ~UnitPublisher() override;
   UnitPublisher(const UnitPublisher&) = delete;
   UnitPublisher& operator=(const UnitPublisher&) = delete;
   UnitPublisher(UnitPublisher&&) = delete;
   UnitPublisher& operator=(UnitPublisher&&) = delete;
 
   // Writes one sample with the sample's timestamp as DDS source timestamp. Cycle thread only.
-  PublishStatus publish(const VirtualSensorSample& sample) noexcept;
-  PublishStatus publish(const ObservationSample& sample) noexcept;
+  PublishStatus publish(const VirtualSensorSample& sample) noexcept override;
+  PublishStatus publish(const ObservationSample& sample) noexcept override;
   // Also fills the wire field publish_rejections from stats().rejected().
-  PublishStatus publish(const HealthSample& sample) noexcept;
-  PublishStatus publish(const LeakDiagnosticSample& sample) noexcept;
-  PublishStatus publish(const ConsistencySample& sample) noexcept;
+  PublishStatus publish(const HealthSample& sample) noexcept override;
+  PublishStatus publish(const LeakDiagnosticSample& sample) noexcept override;
+  PublishStatus publish(const ConsistencySample& sample) noexcept override;
   // Refused whole if any entry is invalid (the entry's status) or there are more than
   // kMaxUnitEstimates; a refused sample counts once.
-  PublishStatus publish(const UnitEstimateSample& sample) noexcept;
+  PublishStatus publish(const UnitEstimateSample& sample) noexcept override;
   // Asserts liveliness of all its writers without writing (a cycle with nothing to publish on
   // a topic). Does not revive a writer whose liveliness was already lost: write a sample for
   // that. Returns kDdsError if Cyclone refuses. Cycle thread only.
-  PublishStatus assert_liveliness() noexcept;
+  PublishStatus assert_liveliness() noexcept override;
 
-  PublisherStats stats() const noexcept;  // any thread
+  PublisherStats stats() const noexcept override;  // any thread
 
  private:
   struct Wire;  // pre-filled wire samples and writer handles (Cyclone types)

@@ -42,43 +42,13 @@
 #include "config/config.hpp"
 #include "io/modbus/client.hpp"
 #include "io/modbus/plan.hpp"
+#include "io/modbus/point_source.hpp"
 #include "io/modbus/quality.hpp"
 
 namespace hvac_twin::modbus {
 
 // CLOCK_MONOTONIC in nanoseconds: the time base of read_time_ns and snapshot()'s `now`.
 std::int64_t monotonic_ns() noexcept;
-
-struct PointSample {
-  double value = 0.0;  // last GOOD engineering value [point unit]; 0 until the first good read
-  PointQuality quality = PointQuality::kNotYetRead;
-  std::uint8_t exception_code = 0;  // set while quality == kDeviceException, else 0
-  std::int64_t read_time_ns = 0;    // CLOCK_MONOTONIC [ns] of the read that gave `value`; 0 = none
-};
-
-struct DeviceStatus {
-  bool running = false;               // the poller thread is running
-  bool connected = false;             // a TCP connection is open
-  std::uint64_t polls_ok = 0;         // polls in which every request was answered with data
-  std::uint64_t polls_exception = 0;  // polls the device answered, but at least one request
-                                      //   with an exception (after the busy retries): those
-                                      //   points DEVICE_EXCEPTION, the poll not ok
-  std::uint64_t polls_failed = 0;     // polls lost to a transport or gateway failure, or
-                                      //   skipped because the device was down
-                                      //   (every poll counts once: ok, exception or failed)
-  std::uint64_t deadline_misses = 0;  // poll deadlines skipped because a poll overran
-  std::uint64_t connect_attempts = 0;
-  std::uint64_t connect_failures = 0;
-  std::uint64_t reconnects = 0;        // successful connects after a lost connection
-  std::uint64_t transport_errors = 0;  // connections dropped after a transport error
-  std::uint64_t requests_ok = 0;       // read requests answered with data
-  std::uint64_t requests_failed = 0;   // read requests answered with an exception or lost
-  std::uint64_t exceptions = 0;        // exception replies (busy retries included)
-  std::uint64_t busy_retries = 0;      // requests re-sent after exception 0x06
-  std::int64_t last_poll_ok_ns = 0;    // CLOCK_MONOTONIC [ns] end of the last ok poll; 0 = none
-  int last_error_number = 0;           // errno / EMB* / kErr* of the last error; 0 = none
-  char last_error[96] = {};            // NUL-terminated text of the last error ("" = none)
-};
 
 enum class EventKind : std::uint8_t {
   kConnected,            // connection opened
@@ -108,7 +78,7 @@ struct Event {
 // -> GOOD recovery (reported by kConnected) are not repeated per point.
 using EventCallback = std::function<void(const Event&)>;
 
-class Poller {
+class Poller final : public PointSource {
  public:
   static constexpr int kBusyRetries = 2;
   static constexpr std::chrono::milliseconds kBusyRetryDelay{20};
@@ -119,16 +89,16 @@ class Poller {
   // word order, scale, offset, range or stale_after_s, a point past address 65535, no points).
   Poller(const config::ModbusDeviceConfig& device, std::span<const config::PointConfig> points,
          EventCallback on_event = {});
-  ~Poller();  // stop()s
+  ~Poller() override;  // stop()s
   Poller(const Poller&) = delete;
   Poller& operator=(const Poller&) = delete;
 
   // Starts the thread (may throw std::system_error). At most once per Poller.
-  void start();
+  void start() override;
   // Asks the thread to stop and joins it. Returns within ~50 ms while the thread waits for a
   // deadline or backs off; a connect or read in progress finishes first, which is bounded by
   // response_timeout_s (+ byte timeouts). Idempotent. Closes the connection.
-  void stop();
+  void stop() override;
 
   // Copies the points into out[i] for i < min(out.size(), point_count()), in the order of the
   // `points` given to the constructor, and the device status into *status (if not null).
@@ -136,7 +106,7 @@ class Poller {
   // STALE. Any thread; takes a mutex held only for a copy (never across I/O); no allocation.
   // Returns the number of samples written.
   std::size_t snapshot(std::span<PointSample> out, std::int64_t now_monotonic_ns,
-                       DeviceStatus* status) const noexcept;
+                       DeviceStatus* status) const noexcept override;
 
   std::size_t point_count() const noexcept { return points_.size(); }
   const RequestPlan& plan() const noexcept { return plan_; }
