@@ -2,16 +2,20 @@
 // monitors: the daemon's code, runtime::UnitPipeline) over the daemon's recording of what the
 // unit's filter saw, as fast as the machine allows, and writes what the daemon published as CSV.
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "config/load.hpp"
 #include "daemon/recording/recording_reader.hpp"
+#include "daemon/replay/csv_points.hpp"
 #include "daemon/replay/csv_sink.hpp"
 #include "daemon/replay/recording_source.hpp"
 #include "daemon/runtime/logging.hpp"
@@ -32,6 +36,9 @@ void usage(std::FILE* to) {
   std::fputs(
       "usage: hvac-twin-replay --config FILE [--unit ID] [--out FILE] [--log-level LEVEL]\n"
       "                        RECORDING...\n"
+      "       hvac-twin-replay --config FILE [--unit ID] [--out FILE] [--input-hold-s S]\n"
+      "                        POINTS.csv\n"
+      "       hvac-twin-replay --config FILE [--unit ID] --export-points POINTS.csv RECORDING...\n"
       "\n"
       "Runs the unit's estimator (the daemon's pipeline) over recorded cycles, as fast as the\n"
       "machine allows, and writes one CSV row per cycle: the virtual sensors with their sigma,\n"
@@ -40,9 +47,15 @@ void usage(std::FILE* to) {
       "  RECORDING          a recording file (<unit>.<sequence>.htrec), or a directory: the\n"
       "                     unit's files in it, oldest first (the daemon writes them to\n"
       "                     <state_directory>/recordings with runtime.recording_budget_mib)\n"
+      "  POINTS.csv         point values with times, exported from a BMS or historian (the\n"
+      "                     format: README, \"Replay\"); cycles every period_s over its span\n"
       "  --config FILE      the daemon's configuration (the unit's model, points, estimator)\n"
       "  --unit ID          the unit (default: the first recording's)\n"
       "  --out FILE         the CSV (default: standard output)\n"
+      "  --export-points F  write the recording's GOOD point values as a points CSV (times:\n"
+      "                     the first cycle's stamp + cycles x period_s); no estimation\n"
+      "  --input-hold-s S   a CSV input reading stays GOOD this long (default: the point's\n"
+      "                     stale_after_s)\n"
       "  --log-level LEVEL  trace|debug|info|warn|error (default warn)\n"
       "\n"
       "Exit status: 0 done, 2 usage, 65 a bad recording, 66 no recording, 78 invalid\n"
@@ -67,9 +80,14 @@ void check_points(const RecordingReader& r, const hvac_twin::config::UnitConfig&
 }
 
 struct Options {
-  std::string config_path, unit, out_path, log_level = "warn";
+  std::string config_path, unit, out_path, export_path, log_level = "warn";
+  double input_hold_s = 0.0;
   std::vector<std::string> inputs;
 };
+
+bool is_csv(const std::string& path) {
+  return path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
+}
 
 // The files to replay, in order: files as given, directories expanded to the unit's files.
 std::vector<std::string> expand(const Options& o, const std::string& unit) {
@@ -92,10 +110,54 @@ std::vector<std::string> expand(const Options& o, const std::string& unit) {
 std::string pick_unit(const Options& o, const hvac_twin::config::Config& config) {
   if (!o.unit.empty()) return o.unit;
   std::error_code ec;
+  if (is_csv(o.inputs.front())) {
+    if (config.units.size() == 1) return config.units.front().id;
+    throw RecordingError(o.inputs.front() + ": a CSV and several units: name one with --unit");
+  }
   if (!std::filesystem::is_directory(o.inputs.front(), ec))
     return RecordingReader(o.inputs.front()).header().unit;
   if (config.units.size() == 1) return config.units.front().id;
   throw RecordingError(o.inputs.front() + ": a directory and several units: name one with --unit");
+}
+
+// The recordings' GOOD point values as a points CSV (csv_points.hpp), one row per cycle at the
+// cycle's model time, so that replaying it runs the same cycles.
+int export_points(const std::vector<std::string>& files, const hvac_twin::config::UnitConfig& unit,
+                  const std::string& path) {
+  std::FILE* out = std::fopen(path.c_str(), "w");
+  if (out == nullptr) throw std::runtime_error(path + ": cannot be written");
+  std::fprintf(out, "# hvac-twin-replay --export-points: unit %s\ntime", unit.id.c_str());
+  for (const auto& p : unit.points)
+    std::fprintf(out, ",%s", p.name.c_str());
+  std::fputc('\n', out);
+  bool first = true;
+  std::int64_t t0 = 0;
+  std::uint64_t c0 = 0;
+  const auto period_ns = static_cast<std::int64_t>(std::llround(unit.estimator.period_s * 1e9));
+  RecordedCycle cycle;
+  for (const auto& f : files) {
+    RecordingReader reader(f);
+    check_points(reader, unit);
+    while (reader.next(cycle)) {
+      if (first) {
+        t0 = cycle.timestamp_ns / 1'000'000'000 * 1'000'000'000;  // whole seconds
+        c0 = cycle.cycle;
+        first = false;
+      }
+      const std::int64_t t = t0 + static_cast<std::int64_t>(cycle.cycle - c0) * period_ns;
+      std::fprintf(out, "%lld.%09lld", static_cast<long long>(t / 1'000'000'000),
+                   static_cast<long long>(t % 1'000'000'000));
+      for (const auto& s : cycle.samples) {
+        if (s.quality == hvac_twin::modbus::PointQuality::kGood)
+          std::fprintf(out, ",%.17g", s.value);
+        else
+          std::fputc(',', out);
+      }
+      std::fputc('\n', out);
+    }
+  }
+  if (std::fclose(out) != 0) throw std::runtime_error(path + ": write failed");
+  return 0;
 }
 
 int replay(const Options& o) {
@@ -123,6 +185,7 @@ int replay(const Options& o) {
   unit.estimator.deadline_s = 1e9;
 
   const std::vector<std::string> files = expand(o, unit_id);
+  if (!o.export_path.empty()) return export_points(files, unit, o.export_path);
   std::FILE* out = stdout;
   if (!o.out_path.empty()) {
     out = std::fopen(o.out_path.c_str(), "w");
@@ -157,11 +220,28 @@ int replay(const Options& o) {
           }};
 
   std::unique_ptr<hvac_twin::runtime::UnitPipeline> pipeline;
-  std::int64_t run = 0;
   std::uint64_t cycles = 0, torn = 0;
   RecordedCycle cycle;
+  auto run_one = [&] {
+    source->set(cycle);
+    pipeline->run_cycle(hvac_twin::runtime::Tick{.index = cycle.cycle,
+                                                 .ticks_since_last = cycle.ticks_since_last,
+                                                 .wall_ns = cycle.timestamp_ns});
+    ++cycles;
+  };
   const auto started = std::chrono::steady_clock::now();
-  for (const auto& path : files) {
+  if (is_csv(files.front())) {
+    if (files.size() != 1) throw RecordingError(files[1] + ": one CSV per replay");
+    hvac_twin::replay::CsvPoints points_csv(files.front(), unit, o.input_hold_s);
+    for (const auto& m : points_csv.missing_points())
+      log->warn("{}: no column for point {}: it is never read", files.front(), m);
+    pipeline = std::make_unique<hvac_twin::runtime::UnitPipeline>(config, unit_index, io, log);
+    while (points_csv.next(cycle))
+      run_one();
+  }
+  std::int64_t run = 0;
+  for (const auto& path : is_csv(files.front()) ? std::vector<std::string>{} : files) {
+    if (is_csv(path)) throw RecordingError(path + ": a CSV among recordings");
     RecordingReader reader(path);
     check_points(reader, unit);
     if (reader.header().unit != unit_id)
@@ -178,13 +258,8 @@ int replay(const Options& o) {
       pipeline = std::make_unique<hvac_twin::runtime::UnitPipeline>(config, unit_index, io, log);
       run = reader.header().run_ns;
     }
-    while (reader.next(cycle)) {
-      source->set(cycle);
-      pipeline->run_cycle(hvac_twin::runtime::Tick{.index = cycle.cycle,
-                                                   .ticks_since_last = cycle.ticks_since_last,
-                                                   .wall_ns = cycle.timestamp_ns});
-      ++cycles;
-    }
+    while (reader.next(cycle))
+      run_one();
     if (reader.torn_tail()) {
       ++torn;
       log->warn("{}: the last record (at byte {}) is torn (a write a crash interrupted): skipped",
@@ -224,6 +299,14 @@ int main(int argc, char** argv) {
       o.out_path = argv[++i];
     } else if (arg == "--log-level" && has_value) {
       o.log_level = argv[++i];
+    } else if (arg == "--export-points" && has_value) {
+      o.export_path = argv[++i];
+    } else if (arg == "--input-hold-s" && has_value) {
+      o.input_hold_s = std::strtod(argv[++i], nullptr);
+      if (!(o.input_hold_s > 0.0)) {
+        std::fprintf(stderr, "hvac-twin-replay: --input-hold-s: expected seconds > 0\n");
+        return kExitUsage;
+      }
     } else if (!arg.starts_with("--")) {
       o.inputs.emplace_back(arg);
     } else {

@@ -1,0 +1,165 @@
+// The golden replay: a recording the daemon made of the demo heat pump (149 cycles at 10x, a
+// restart after failed predictions at cycle 50 included) is committed under tests/golden with
+// the replay's output. Any change of the model, the filter or the pipeline that moves an estimate
+// shows here, and tests/golden/regenerate.sh rewrites the expected output only deliberately.
+// The comparison allows 1e-6 relative: the same build reproduces the daemon to 1e-9
+// (record_replay_test); across build types (the sanitizer stage compiles with -O1) rounding may
+// differ in the last digits. Also: the points-CSV path, and how bad input files are reported.
+#include <catch2/catch.hpp>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "tests/integration/process.hpp"
+#include "tests/integration/replay_csv.hpp"
+#include "tests/support/scratch_dir.hpp"
+
+using namespace hvac_twin::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kGolden = std::string(HVAC_TWIN_SOURCE_DIR) + "/tests/golden/";
+const std::string kConfig = kGolden + "heat-pump.json";
+const std::string kRecording = kGolden + "hp1.00000001.htrec";
+constexpr double kAcrossBuilds = 1e-6;
+
+struct Run {
+  int rc = -1;
+  std::string err;
+};
+
+Run replay(const ScratchDir& dir, const std::vector<std::string>& args) {
+  const std::string out = dir / "replay.out", err = dir / "replay.err";
+  std::filesystem::remove(err);
+  Process p(HVAC_TWIN_REPLAY_EXE, args, out, err);
+  Run r{p.wait(300s).value_or(-1), ""};
+  std::ifstream in(err);
+  r.err.assign(std::istreambuf_iterator<char>(in), {});
+  return r;
+}
+
+// The first field where `got` differs from `want` ("" if none): numbers within `rel`, text
+// equal; rows matched in order.
+std::string first_difference(const ReplayCsv& want, const ReplayCsv& got, double rel,
+                             std::size_t skip_columns = 0) {
+  if (want.columns != got.columns) return "the header rows differ";
+  if (want.rows.size() != got.rows.size())
+    return std::to_string(got.rows.size()) + " rows, expected " + std::to_string(want.rows.size());
+  for (std::size_t r = 0; r < want.rows.size(); ++r) {
+    for (std::size_t c = skip_columns; c < want.columns.size(); ++c) {
+      const std::string& a = want.rows[r].at(c);
+      const std::string& b = got.rows[r].at(c);
+      if (a == b) continue;
+      char* end_a = nullptr;
+      char* end_b = nullptr;
+      const double x = std::strtod(a.c_str(), &end_a), y = std::strtod(b.c_str(), &end_b);
+      if (!a.empty() && !b.empty() && *end_a == 0 && *end_b == 0 && close(x, y, rel)) continue;
+      return "row " + std::to_string(r + 1) + " column " + want.columns[c] + ": expected \"" + a +
+             "\", got \"" + b + "\"";
+    }
+  }
+  return "";
+}
+
+// The first `bytes` bytes of the golden recording, with the byte at `flip` (if any) inverted.
+std::string copy_recording(const ScratchDir& dir, std::size_t bytes, long flip = -1) {
+  std::ifstream in(kRecording, std::ios::binary);
+  std::string data(std::istreambuf_iterator<char>(in), {});
+  data.resize(std::min(bytes, data.size()));
+  if (flip >= 0) data[static_cast<std::size_t>(flip)] ^= 0x5a;
+  const std::string path = dir / "hp1.00000001.htrec";
+  std::ofstream(path, std::ios::binary) << data;
+  return path;
+}
+
+}  // namespace
+
+TEST_CASE("the golden recording replays to its committed output", "[replay][golden]") {
+  ScratchDir dir("golden-replay");
+  const std::string out = dir / "replay.csv";
+  const Run r = replay(dir, {"--config", kConfig, "--out", out, kRecording});
+  INFO(r.err);
+  REQUIRE(r.rc == 0);
+  const ReplayCsv want(kGolden + "hp1.expected.csv"), got(out);
+  REQUIRE(want.rows.size() == 149);
+  INFO(first_difference(want, got, kAcrossBuilds));
+  CHECK(first_difference(want, got, kAcrossBuilds) == "");
+}
+
+TEST_CASE("a points CSV exported from a recording replays to the recording's estimates",
+          "[replay][golden]") {
+  ScratchDir dir("golden-csv");
+  const std::string points = dir / "points.csv", out = dir / "replay.csv";
+  Run r = replay(dir, {"--config", kConfig, "--export-points", points, kRecording});
+  INFO(r.err);
+  REQUIRE(r.rc == 0);
+  r = replay(dir, {"--config", kConfig, "--out", out, points});
+  INFO(r.err);
+  REQUIRE(r.rc == 0);
+  // The golden recording's cycles are 0..148 without a skipped tick, so the CSV's cycles are the
+  // same ones; only their stamps differ (whole seconds plus cycles x period).
+  const ReplayCsv want(kGolden + "hp1.expected.csv"), got(out);
+  REQUIRE(want.rows.size() == 149);
+  for (std::size_t i = 0; i < want.rows.size(); ++i)
+    REQUIRE(want.field(i, "cycle") == std::to_string(i));
+  INFO(first_difference(want, got, kAcrossBuilds, 2));
+  CHECK(first_difference(want, got, kAcrossBuilds, 2) == "");
+}
+
+TEST_CASE("bad recordings and point CSVs are refused naming where, torn tails skipped",
+          "[replay][golden]") {
+  ScratchDir dir("golden-bad");
+  const std::string out = dir / "replay.csv";
+  // The preamble and header, then 149 records of one size (8 + 32 + 18 per point).
+  std::ifstream in(kRecording, std::ios::binary);
+  char preamble[16];
+  in.read(preamble, 16);
+  std::uint32_t header = 0;
+  std::memcpy(&header, preamble + 8, 4);
+  const std::size_t first = 16 + header;
+  const std::size_t record = (std::filesystem::file_size(kRecording) - first) / 149;
+  REQUIRE((record - 40) % 18 == 0);
+
+  SECTION("a torn last record is skipped") {
+    const std::string cut = copy_recording(dir, first + 3 * record + record / 2);
+    const Run r = replay(dir, {"--config", kConfig, "--out", out, cut});
+    INFO(r.err);
+    CHECK(r.rc == 0);
+    CHECK(r.err.find("torn") != std::string::npos);
+    CHECK(ReplayCsv(out).rows.size() == 3);
+  }
+  SECTION("a damaged record before the end is an error naming it") {
+    const std::string bad = copy_recording(dir, first + 10 * record, first + record + 20);
+    const Run r = replay(dir, {"--config", kConfig, "--out", out, bad});
+    INFO(r.err);
+    CHECK(r.rc == 65);
+    CHECK(r.err.find(bad + ": record 2 at byte " + std::to_string(first + record)) !=
+          std::string::npos);
+  }
+  SECTION("not a recording") {
+    const std::string bad = copy_recording(dir, first + record, 0);
+    const Run r = replay(dir, {"--config", kConfig, "--out", out, bad});
+    CHECK(r.rc == 65);
+    CHECK(r.err.find("not an hvac-twin recording") != std::string::npos);
+  }
+  SECTION("a points CSV with a bad field") {
+    const std::string csv = dir / "points.csv";
+    std::ofstream(csv) << "# a comment\ntime,suction_pressure,zone_temp\n"
+                       << "2026-07-01T12:00:00Z,1000,25\n2026-07-01T12:00:02Z,1000,warm\n";
+    const Run r = replay(dir, {"--config", kConfig, "--out", out, csv});
+    CHECK(r.rc == 65);
+    CHECK(r.err.find(csv + ": line 4: column 3: \"warm\" is not a number") != std::string::npos);
+  }
+  SECTION("a points CSV naming a point the unit does not have") {
+    const std::string csv = dir / "points.csv";
+    std::ofstream(csv) << "time,suction_pressure,room_temp\n1790000000,1000,25\n";
+    const Run r = replay(dir, {"--config", kConfig, "--out", out, csv});
+    CHECK(r.rc == 65);
+    CHECK(r.err.find(csv + ": line 1: column 3 \"room_temp\" is not a point of unit hp1") !=
+          std::string::npos);
+  }
+}
