@@ -104,10 +104,7 @@ CsvPoints::CsvPoints(std::string path, const config::UnitConfig& unit, double in
     points_.push_back(p);
   }
   std::string line;
-  while (std::getline(in_, line)) {
-    ++line_;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+  if (next_line(line)) {
     const auto columns = split(line);
     if (columns.empty() || columns[0] != "time")
       fail("the header row's first column must be \"time\"");
@@ -136,12 +133,18 @@ void CsvPoints::fail(const std::string& what) const {
   throw RecordingError(path_ + ": line " + std::to_string(line_) + ": " + what);
 }
 
-bool CsvPoints::read_row() {
-  std::string line;
+bool CsvPoints::next_line(std::string& line) {
   while (std::getline(in_, line)) {
     ++line_;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // a file from Windows
+    if (!line.empty() && line[0] != '#') return true;
+  }
+  return false;
+}
+
+bool CsvPoints::read_row() {
+  std::string line;
+  if (next_line(line)) {
     const auto fields = split(line);
     if (fields.size() != column_point_.size() + 1)
       fail(std::to_string(fields.size()) + " fields, the header has " +

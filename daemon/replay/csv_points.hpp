@@ -46,7 +46,8 @@ class CsvPoints {
   [[nodiscard]] const std::vector<std::string>& missing_points() const { return missing_; }
 
  private:
-  bool read_row();  // into row_time_ / row_; false at the end of the file
+  bool next_line(std::string& line);  // the next line that is not blank or a comment
+  bool read_row();                    // into row_time_ / row_; false at the end of the file
   [[noreturn]] void fail(const std::string& what) const;
 
   struct Point {
