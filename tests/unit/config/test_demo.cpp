@@ -140,6 +140,7 @@ TEST_CASE("demo.json loads with the values it sets and the documented defaults",
   CHECK(c.runtime.hang_exit);
   CHECK(c.runtime.overruns_before_watchdog_stop == 3);
   CHECK(c.runtime.log_level == "info");
+  CHECK(c.runtime.recording_budget_mib == 64);  // the demo records, for hvac-twin-replay
 }
 
 TEST_CASE("omitted fields take the defaults of config.hpp", "[config]") {
@@ -173,6 +174,7 @@ TEST_CASE("omitted fields take the defaults of config.hpp", "[config]") {
   CHECK(c.runtime.hang_exit == defaults.runtime.hang_exit);
   CHECK(c.runtime.overruns_before_watchdog_stop == defaults.runtime.overruns_before_watchdog_stop);
   CHECK(c.runtime.log_level == defaults.runtime.log_level);
+  CHECK(c.runtime.recording_budget_mib == 0);  // no recording unless asked for
 
   const UnitConfig& u = c.units.at(0);
   const ModbusDeviceConfig m;

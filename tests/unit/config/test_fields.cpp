@@ -188,6 +188,12 @@ TEST_CASE("runtime: time scale, hang timeout, watchdog, log level", "[config]") 
   require_single_error(load_json(j), "/runtime/overruns_before_watchdog_stop",
                        {"expected an integer in [1, 1000]; got 0"});
   j = demo_json();
+  j["runtime"]["recording_budget_mib"] = -1;
+  require_single_error(load_json(j), "/runtime/recording_budget_mib",
+                       {"expected an integer in [0, 1048576]; got -1"});
+  j["runtime"]["recording_budget_mib"] = 0.5;
+  require_single_error(load_json(j), "/runtime/recording_budget_mib", {"got 0.5"});
+  j = demo_json();
   j["runtime"]["hang_exit"] = "yes";
   require_single_error(load_json(j), "/runtime/hang_exit", {"expected true or false; got \"yes\""});
   j = demo_json();
