@@ -40,6 +40,7 @@ Recorder::Recorder(std::string directory, RecordingHeader header, std::uint64_t 
     throw std::runtime_error("recording directory " + directory_ + ": cannot be created (" +
                              (ec ? ec.message() : "not a directory") + ")");
   ::chmod(directory_.c_str(), 0750);
+  (void)encode_header(header_);  // a header that does not fit throws here, not on the thread
   const auto existing = unit_recordings(directory_, header_.unit);
   next_sequence_ = existing.empty() ? 1 : sequence_of(existing.back()) + 1;
   thread_ = std::thread([this] { run(); });
@@ -59,6 +60,10 @@ void Recorder::submit(std::uint64_t cycle, std::uint64_t ticks_since_last,
                       std::int64_t timestamp_ns, bool connected,
                       std::span<const modbus::PointSample> samples,
                       std::int64_t now_monotonic_ns) noexcept {
+  if (samples.size() != header_.points.size()) {  // a caller's bug: never a damaged record
+    failed_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
   {
     std::lock_guard lock(mutex_);
     if (head_ - tail_ >= kRingRecords) {

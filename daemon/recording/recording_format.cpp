@@ -3,6 +3,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "daemon/runtime/checkpoint.hpp"
@@ -64,14 +65,9 @@ std::vector<std::byte> encode_header(const RecordingHeader& header) {
   return out;
 }
 
-RecordingHeader decode_header(std::span<const std::byte> json) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(reinterpret_cast<const char*>(json.data()),
-                              reinterpret_cast<const char*>(json.data()) + json.size());
-  } catch (const nlohmann::json::exception& e) {
-    throw RecordingError(std::string("header: not JSON: ") + e.what());
-  }
+namespace {
+
+RecordingHeader header_of(const nlohmann::json& j) {
   if (!j.is_object() || j.value("format", "") != "hvac-twin recording")
     throw RecordingError("header: not an hvac-twin recording header");
   RecordingHeader h;
@@ -96,6 +92,24 @@ RecordingHeader decode_header(std::span<const std::byte> json) {
     h.points.push_back({text_field(p, "name"), text_field(p, "unit"), text_field(p, "role")});
   }
   return h;
+}
+
+}  // namespace
+
+RecordingHeader decode_header(std::span<const std::byte> json) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(reinterpret_cast<const char*>(json.data()),
+                              reinterpret_cast<const char*>(json.data()) + json.size());
+  } catch (const nlohmann::json::exception& e) {
+    throw RecordingError(std::string("header: not JSON: ") + e.what());
+  }
+  // j.value() throws a type_error for a key of another type ("format": [], "run_ns": "x").
+  try {
+    return header_of(j);
+  } catch (const nlohmann::json::exception& e) {
+    throw RecordingError(std::string("header: ") + e.what());
+  }
 }
 
 std::size_t encode_record(std::uint64_t cycle, std::uint64_t ticks_since_last,
@@ -150,7 +164,9 @@ bool decode_payload(std::span<const std::byte> payload, RecordedCycle& out, std:
     const auto quality = get<std::uint8_t>(at);
     s.exception_code = get<std::uint8_t>(at);
     const auto age = get<std::int64_t>(at);
-    if (quality > static_cast<std::uint8_t>(modbus::PointQuality::kOutOfRange) || age < -1) {
+    // An age beyond the timestamp's range would overflow timestamp - age (undefined behaviour).
+    if (quality > static_cast<std::uint8_t>(modbus::PointQuality::kOutOfRange) || age < -1 ||
+        (age > 0 && out.timestamp_ns < std::numeric_limits<std::int64_t>::min() + age)) {
       why = "a point's quality " + std::to_string(quality) + " or age " + std::to_string(age) +
             " is not valid";
       return false;

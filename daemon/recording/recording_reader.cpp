@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <system_error>
 
 #include "daemon/runtime/checkpoint.hpp"
@@ -25,10 +26,22 @@ RecordingReader::RecordingReader(std::string path) : path_(std::move(path)) {
   const auto size = std::filesystem::file_size(path_, ec);
   if (ec) throw RecordingError(path_ + ": " + ec.message());
   size_ = size;
-  in_.open(path_, std::ios::binary);
-  if (!in_) throw RecordingError(path_ + ": cannot be opened for reading");
+  auto file = std::make_unique<std::ifstream>(path_, std::ios::binary);
+  if (!*file) throw RecordingError(path_ + ": cannot be opened for reading");
+  in_ = std::move(file);
+  read_header();
+}
+
+RecordingReader::RecordingReader(std::unique_ptr<std::istream> in, std::uint64_t size,
+                                 std::string name)
+    : path_(std::move(name)), in_(std::move(in)), size_(size) {
+  if (!in_ || !*in_) throw RecordingError(path_ + ": cannot be read");
+  read_header();
+}
+
+void RecordingReader::read_header() {
   std::byte preamble[kFilePreambleBytes];
-  if (!in_.read(reinterpret_cast<char*>(preamble), sizeof preamble))
+  if (size_ < sizeof preamble || !in_->read(reinterpret_cast<char*>(preamble), sizeof preamble))
     throw RecordingError(path_ + ": shorter than a recording's 16-byte preamble (" +
                          std::to_string(size_) + " bytes)");
   if (std::memcmp(preamble, kMagic, sizeof kMagic) != 0)
@@ -38,8 +51,8 @@ RecordingReader::RecordingReader(std::string path) : path_(std::move(path)) {
     throw RecordingError(path_ + ": header length " + std::to_string(length) +
                          " is longer than the file or the 1 MiB limit");
   std::vector<std::byte> text(length);
-  in_.read(reinterpret_cast<char*>(text.data()), length);
-  if (!in_ || runtime::crc32c(text) != u32_at(preamble + 12))
+  in_->read(reinterpret_cast<char*>(text.data()), length);
+  if (!*in_ || runtime::crc32c(text) != u32_at(preamble + 12))
     throw RecordingError(path_ + ": header damaged (checksum mismatch)");
   try {
     header_ = decode_header(text);
@@ -66,8 +79,8 @@ bool RecordingReader::next(RecordedCycle& out) {
   };
   std::byte preamble[kRecordPreambleBytes];
   if (left < sizeof preamble) return torn();
-  in_.read(reinterpret_cast<char*>(preamble), sizeof preamble);
-  if (!in_) fail(at, "read error");
+  in_->read(reinterpret_cast<char*>(preamble), sizeof preamble);
+  if (!*in_) fail(at, "read error");
   const std::uint32_t length = u32_at(preamble);
   if (length != payload_.size()) {
     // A length field a crash left half-written can only be the last thing in the file.
@@ -77,8 +90,8 @@ bool RecordingReader::next(RecordedCycle& out) {
                  std::to_string(header_.points.size()) + " points");
   }
   if (left < kRecordPreambleBytes + length) return torn();
-  in_.read(reinterpret_cast<char*>(payload_.data()), length);
-  if (!in_) fail(at, "read error");
+  in_->read(reinterpret_cast<char*>(payload_.data()), length);
+  if (!*in_) fail(at, "read error");
   if (runtime::crc32c(payload_) != u32_at(preamble + 4)) {
     if (left == kRecordPreambleBytes + length) return torn();
     fail(at, "checksum mismatch (damaged)");

@@ -3,7 +3,8 @@
 #pragma once
 
 #include <cstdint>
-#include <fstream>
+#include <istream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,9 @@ class RecordingReader {
   // Opens the file and reads its header; throws RecordingError naming the file and what was
   // wrong (missing, unreadable, not a recording, a damaged header, another format version).
   explicit RecordingReader(std::string path);
+  // The same over `size` bytes of a stream (a fuzzer's input: no file per input); `name` stands
+  // for the file in messages. The size, not the stream's end, tells a torn tail.
+  RecordingReader(std::unique_ptr<std::istream> in, std::uint64_t size, std::string name);
 
   [[nodiscard]] const RecordingHeader& header() const { return header_; }
   [[nodiscard]] const std::string& path() const { return path_; }
@@ -31,10 +35,11 @@ class RecordingReader {
   [[nodiscard]] std::uint64_t torn_offset() const { return torn_offset_; }
 
  private:
+  void read_header();
   [[noreturn]] void fail(std::uint64_t offset, const std::string& what) const;
 
   std::string path_;
-  std::ifstream in_;
+  std::unique_ptr<std::istream> in_;
   std::uint64_t size_ = 0;
   std::uint64_t offset_ = 0;  // of the next record
   RecordingHeader header_;
