@@ -14,9 +14,9 @@ build="$(cd "$1" && pwd)"
 seconds="${2:-25}"
 shift $(($# < 2 ? $# : 2))
 targets=("$@")
-if [ ${#targets[@]} -eq 0 ]; then targets=(config decode check_reply checkpoint); fi
+if [ ${#targets[@]} -eq 0 ]; then targets=(config decode check_reply checkpoint recording); fi
 
-declare -A max_len=([config]=8192 [decode]=64 [check_reply]=300 [checkpoint]=4096)
+declare -A max_len=([config]=8192 [decode]=64 [check_reply]=300 [checkpoint]=4096 [recording]=4096)
 status=0
 for t in "${targets[@]}"; do
   exe="$build/tests/fuzz/hvac_twin_fuzz_$t"
