@@ -18,6 +18,7 @@
 #include "daemon/replay/csv_points.hpp"
 #include "daemon/replay/csv_sink.hpp"
 #include "daemon/replay/recording_source.hpp"
+#include "daemon/replay/smoothing.hpp"
 #include "daemon/runtime/logging.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
 #include "plant_models/catalog.hpp"
@@ -54,6 +55,9 @@ void usage(std::FILE* to) {
       "  --out FILE         the CSV (default: standard output)\n"
       "  --export-points F  write the recording's GOOD point values as a points CSV (times:\n"
       "                     the first cycle's stamp + cycles x period_s); no estimation\n"
+      "  --smooth FILE      also write the fixed-interval (RTS) smoothed outputs with their\n"
+      "                     sigma to FILE (CSV): after-the-fact estimates from all the data\n"
+      "                     (an EKF only)\n"
       "  --input-hold-s S   a CSV input reading stays GOOD this long (default: the point's\n"
       "                     stale_after_s)\n"
       "  --log-level LEVEL  trace|debug|info|warn|error (default warn)\n"
@@ -80,7 +84,7 @@ void check_points(const RecordingReader& r, const hvac_twin::config::UnitConfig&
 }
 
 struct Options {
-  std::string config_path, unit, out_path, export_path, log_level = "warn";
+  std::string config_path, unit, out_path, export_path, smooth_path, log_level = "warn";
   double input_hold_s = 0.0;
   std::vector<std::string> inputs;
 };
@@ -219,14 +223,26 @@ int replay(const Options& o) {
             return s;
           }};
 
+  std::unique_ptr<hvac_twin::replay::Smoothing> smoothing;
+  if (!o.smooth_path.empty())
+    smoothing = std::make_unique<hvac_twin::replay::Smoothing>(
+        model->layout().states.size(), outputs.size(), model->layout().inputs.size());
   std::unique_ptr<hvac_twin::runtime::UnitPipeline> pipeline;
+  auto new_pipeline = [&] {
+    pipeline.reset();
+    pipeline = std::make_unique<hvac_twin::runtime::UnitPipeline>(config, unit_index, io, log,
+                                                                  smoothing.get());
+    if (smoothing) smoothing->attach(pipeline.get());
+  };
   std::uint64_t cycles = 0, torn = 0;
   RecordedCycle cycle;
   auto run_one = [&] {
     source->set(cycle);
-    pipeline->run_cycle(hvac_twin::runtime::Tick{.index = cycle.cycle,
-                                                 .ticks_since_last = cycle.ticks_since_last,
-                                                 .wall_ns = cycle.timestamp_ns});
+    const auto outcome =
+        pipeline->run_cycle(hvac_twin::runtime::Tick{.index = cycle.cycle,
+                                                     .ticks_since_last = cycle.ticks_since_last,
+                                                     .wall_ns = cycle.timestamp_ns});
+    if (smoothing) smoothing->end_cycle(cycle.cycle, cycle.timestamp_ns, outcome);
     ++cycles;
   };
   const auto started = std::chrono::steady_clock::now();
@@ -254,8 +270,7 @@ int replay(const Options& o) {
             "{}: recorded by another run of the daemon; the estimator starts again from the "
             "measured conditions (a daemon that resumed from a checkpoint did not)",
             path);
-      pipeline.reset();
-      pipeline = std::make_unique<hvac_twin::runtime::UnitPipeline>(config, unit_index, io, log);
+      new_pipeline();
       run = reader.header().run_ns;
     }
     while (reader.next(cycle))
@@ -265,6 +280,13 @@ int replay(const Options& o) {
       log->warn("{}: the last record (at byte {}) is torn (a write a crash interrupted): skipped",
                 path, reader.torn_offset());
     }
+  }
+  if (smoothing) {
+    std::FILE* f = std::fopen(o.smooth_path.c_str(), "w");
+    if (f == nullptr) throw std::runtime_error(o.smooth_path + ": cannot be written");
+    const auto breaks = smoothing->write(f, *model);
+    if (std::fclose(f) != 0) throw std::runtime_error(o.smooth_path + ": write failed");
+    log->info("{}: smoothed {} cycles in {} piece(s)", o.smooth_path, cycles, breaks + 1);
   }
   if (out != stdout && std::fclose(out) != 0) {
     std::fprintf(stderr, "hvac-twin-replay: %s: write failed\n", o.out_path.c_str());
@@ -299,6 +321,8 @@ int main(int argc, char** argv) {
       o.out_path = argv[++i];
     } else if (arg == "--log-level" && has_value) {
       o.log_level = argv[++i];
+    } else if (arg == "--smooth" && has_value) {
+      o.smooth_path = argv[++i];
     } else if (arg == "--export-points" && has_value) {
       o.export_path = argv[++i];
     } else if (arg == "--input-hold-s" && has_value) {

@@ -468,6 +468,7 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
                 : flags & (kWorse | dds::kFlagDeadlineOverrun) ? dds::EstimateQuality::kDegraded
                                                                : dds::EstimateQuality::kGood;
   if (out.quality == dds::EstimateQuality::kDegraded) ++degraded_cycles_;
+  out.flags = flags;
   note_quality(out.quality, flags);
   publish(stamp, tick.index, out.quality, flags, estimates_valid);
   publish_consistency(stamp, tick.index);

@@ -16,6 +16,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,7 @@ struct CycleOutcome {
   bool overrun = false;
   bool ran_estimator = false;  // false while waiting for the first inputs
   dds::EstimateQuality quality = dds::EstimateQuality::kNotReady;
+  std::uint32_t flags = 0;  // the dds::kFlag* bits published with the cycle's estimates
   std::int64_t cycle_ns = 0;
 };
 
@@ -89,6 +91,9 @@ class UnitPipeline {
   [[nodiscard]] const std::string& id() const { return unit_.id; }
   [[nodiscard]] std::int64_t wall_period_ns() const { return wall_period_ns_; }
   [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
+  [[nodiscard]] const plant::ContinuousModel& model() const { return *model_; }
+  // The model inputs of the last cycle's estimates [model units].
+  [[nodiscard]] std::span<const double> inputs() const { return u_; }
   // The leak detector, or nullptr when the unit's model does not estimate a leak rate.
   [[nodiscard]] const est::LeakDetector* leak_detector() const { return leak_.get(); }
   [[nodiscard]] bool cold_start() const { return cold_start_; }          // converging; cycle thread
