@@ -233,9 +233,15 @@ ModelLayout HeatPumpR32::make_layout() const {
     l.states[i] = StateInfo{std::move(name), unit,           lo, hi, x0[i], std0, q, abs_tol,
                             augmented,       std::move(desc)};
   };
-  // Enthalpy bounds: subcooled liquid at about -50 degC to vapour at about 160 degC, inside
-  // the property table at every operating pressure.
-  const double h_lo = 100.0, h_hi = 680.0;
+  // Enthalpy bounds: subcooled liquid at about -50 degC to vapour at 112-161 degC, inside the
+  // property table at every pressure the table covers. The table's vapour edge is the 435 K
+  // isotherm, whose enthalpy falls with pressure (689 kJ/kg at 0.05 MPa, 641 at 5.6 MPa): an
+  // upper bound of 680 held only below 1.1 MPa, and an update that left the discharge line at
+  // 662.6 kJ/kg (golden replay, cycle 50) made every pressure solve at the condenser's 3.27 MPa
+  // fail, the predictions with it. The pressure solve visits pressures up to its ceiling, so the
+  // bound is the table's edge at its highest pressure.
+  const double h_lo = 100.0;
+  const double h_hi = std::floor(1e-3 * r32::ph_table().h_max(r32::PhTable::kPmax));
   // The charge's noise and bounds are set for leak detection (measured in leak_bench against a
   // 20-cell plant with perturbed parameters): the 10-cell model's charge estimate sits 4-9 % of
   // the nameplate above the plant's, moving with the operating point. With a random walk of
