@@ -37,8 +37,9 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   if (process_noise.size() != n_)
     throw std::invalid_argument("EKF: process noise must have one entry per state");
   const auto n = static_cast<Eigen::Index>(n_), m = static_cast<Eigen::Index>(m_);
-  x_ = x_prior_ = x_good_ = Eigen::VectorXd::Zero(n);
-  P_ = P_good_ = P_initial_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  x_ = x_prior_ = x_good_ = x_try_ = xdot_ = Eigen::VectorXd::Zero(n);
+  P_ = P_good_ = P_initial_ = P_prior_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  y_try_ = Eigen::VectorXd::Zero(m);
   H_ = Eigen::MatrixXd::Zero(m, n);
   y_ = Eigen::VectorXd::Zero(m);
   ph_ = k_ = bh_ = Eigen::VectorXd::Zero(n);
@@ -215,6 +216,7 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     P_ = P_initial_;
     gate(z, reports, count, available);
   }
+  P_prior_ = P_;
   for (std::size_t i = 0; i < count; ++i) {
     if (!reports[i].fused || (reset && held_[i] >= 0)) continue;
     if (!reset)
@@ -230,7 +232,29 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     constraints_->set_inputs(u);
     apply_constraints();
   }
+  keep_evaluable(u);
   return finish_step();
+}
+
+void Ekf::keep_evaluable(std::span<const double> u) {
+  const auto evaluable = [&](Eigen::VectorXd& x) {
+    return model_.rhs(span_of(x), u, span_of(xdot_)) == plant::kModelOk &&
+           model_.outputs(span_of(x), u, span_of(y_try_)) == plant::kModelOk;
+  };
+  if (evaluable(x_)) return;
+  ++step_backs_;
+  double alpha = 1.0;
+  for (int i = 0; i < kMaxStepBacks; ++i) {
+    alpha *= 0.5;
+    x_try_ = x_prior_ + alpha * (x_ - x_prior_);
+    if (!evaluable(x_try_)) continue;
+    x_ = x_try_;
+    P_ *= alpha;
+    P_ += (1.0 - alpha) * P_prior_;
+    return;
+  }
+  x_ = x_prior_;  // the prior: its outputs were evaluated at the start of this update
+  P_ = P_prior_;
 }
 
 std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,

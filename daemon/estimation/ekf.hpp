@@ -103,6 +103,9 @@ class Ekf final : public Estimator {
   [[nodiscard]] const Eigen::MatrixXd& covariance() const override { return P_; }
   [[nodiscard]] const Eigen::MatrixXd& transition() const { return F_; }  // F of the last predict
   [[nodiscard]] const EkfCounters& counters() const override { return counters_; }
+  // Updates whose posterior the model could not evaluate, stepped back toward the prior
+  // (keep_evaluable()). Not in a checkpoint.
+  [[nodiscard]] std::uint64_t posterior_step_backs() const { return step_backs_; }
   [[nodiscard]] const plant::Integrator& integrator() const { return integrator_; }
   [[nodiscard]] std::size_t num_states() const override { return n_; }
   // Constraint rows active after the last update (constrained mode), and their names.
@@ -133,6 +136,13 @@ class Ekf final : public Estimator {
                    std::size_t count);
   void build_constraints();
   void apply_constraints();
+  // A posterior the model cannot evaluate (inside every state bound, outside a property table's
+  // domain at the pressures it implies) would fail every prediction after it, until a restart.
+  // Steps back toward the prior, halving the step up to kMaxStepBacks times (the prior itself
+  // last), until the model's right-hand side and outputs evaluate; the covariance the matching
+  // convex combination of posterior and prior, which is at least that of the partial update.
+  void keep_evaluable(std::span<const double> u);
+  static constexpr int kMaxStepBacks = 6;
 
   const plant::ContinuousModel& model_;
   EkfOptions options_;
@@ -141,6 +151,9 @@ class Ekf final : public Estimator {
 
   Eigen::VectorXd x_, x_prior_, x_good_;
   Eigen::MatrixXd P_, P_good_, P_initial_, F_, Qc_, Qd_, tmp_;
+  Eigen::MatrixXd P_prior_;               // P before this update's fusion (after a reset: P0)
+  Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
+  std::uint64_t step_backs_ = 0;
   Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
   Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;

@@ -28,6 +28,23 @@ struct Bounded : test::RandomWalk {
   }
 };
 
+// A model defined on part of its state's box: like the heat pump, whose enthalpy bound once let an
+// update leave the property table at the condenser's pressure. Its right-hand side fails above 5.
+struct PartDomain : test::RandomWalk {
+  plant::ModelLayout layout() const {
+    auto l = test::RandomWalk::layout();
+    l.states[0].min = 0.0;
+    l.states[0].max = 10.0;
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S> x, std::span<const double>, std::span<S> f) const {
+    if (x[0] > 5.0) return plant::kModelRecoverable;
+    f[0] = S(0.0);
+    return plant::kModelOk;
+  }
+};
+
 est::Measurement meas(double value, double variance = 0.01) {
   return {.output = 0, .value = value, .variance = variance, .available = true};
 }
@@ -124,4 +141,30 @@ TEST_CASE("output estimates carry delta-method standard deviations", "[ekf]") {
   REQUIRE(ekf.output_estimates({}, {&y, 1}, {&sigma, 1}) == plant::kModelOk);
   CHECK(y == Approx(2.0));
   CHECK(sigma == Approx(0.2 / (2.0 * 2.0)));  // |d sqrt(x)/dx| * sigma_x
+}
+
+TEST_CASE("an update the model cannot evaluate steps back toward the prior", "[ekf][domain]") {
+  const plant::AdModel<PartDomain> model{PartDomain{}};
+  for (const bool constrained : {false, true}) {
+    INFO((constrained ? "constrained" : "plain") << " EKF");
+    est::EkfOptions opt;
+    opt.constrained = constrained;
+    opt.nis_gate = 1e9;  // let the far reading in
+    est::Ekf ekf(model, std::vector<double>{0.01}, 1, opt);
+    ekf.reset(std::vector<double>{4.0}, std::vector<double>{3.0});
+    const double prior_variance = ekf.covariance()(0, 0);
+    est::MeasurementReport rep;
+    auto m = meas(9.0);  // the posterior would be near 9, where the model fails
+    REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+    CHECK(rep.fused);
+    // Halved three times: the step's eighth is the first point below 5; the variance the same
+    // blend of posterior and prior (at least the partial update's).
+    const double gain = 9.0 / 9.01, full = 4.0 + gain * 5.0, posterior_variance = 9.0 * 0.01 / 9.01;
+    CHECK(ekf.state()(0) == Approx(4.0 + 0.125 * (full - 4.0)).epsilon(1e-9));
+    CHECK(ekf.covariance()(0, 0) ==
+          Approx(0.125 * posterior_variance + 0.875 * prior_variance).epsilon(1e-9));
+    CHECK(ekf.posterior_step_backs() == 1);
+    // And the next prediction runs (without the step back it fails, and so would every one).
+    CHECK(ekf.predict({}, 1.0) == est::StepStatus::kOk);
+  }
 }
