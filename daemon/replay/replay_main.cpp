@@ -18,6 +18,7 @@
 #include "daemon/replay/csv_points.hpp"
 #include "daemon/replay/csv_sink.hpp"
 #include "daemon/replay/recording_source.hpp"
+#include "daemon/replay/report.hpp"
 #include "daemon/replay/smoothing.hpp"
 #include "daemon/runtime/logging.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
@@ -59,6 +60,8 @@ void usage(std::FILE* to) {
       "                     sigma to FILE (CSV): after-the-fact estimates from all the data\n"
       "                     (an EKF only). Experimental: on the heat pump it helps some outputs\n"
       "                     and hurts others, and its sigma is too small (README)\n"
+      "  --report FILE      also write an HTML report (one file, SVG charts) of the replay;\n"
+      "                     needs --out\n"
       "  --input-hold-s S   a CSV input reading stays GOOD this long (default: the point's\n"
       "                     stale_after_s)\n"
       "  --log-level LEVEL  trace|debug|info|warn|error (default warn)\n"
@@ -85,7 +88,8 @@ void check_points(const RecordingReader& r, const hvac_twin::config::UnitConfig&
 }
 
 struct Options {
-  std::string config_path, unit, out_path, export_path, smooth_path, log_level = "warn";
+  std::string config_path, unit, out_path, export_path, smooth_path, report_path,
+      log_level = "warn";
   double input_hold_s = 0.0;
   std::vector<std::string> inputs;
 };
@@ -293,6 +297,10 @@ int replay(const Options& o) {
     std::fprintf(stderr, "hvac-twin-replay: %s: write failed\n", o.out_path.c_str());
     return 1;
   }
+  if (!o.report_path.empty()) {
+    hvac_twin::replay::write_report(o.out_path, o.smooth_path, unit_id, o.report_path);
+    log->info("{}: report written", o.report_path);
+  }
   const double s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   std::fprintf(stderr,
@@ -322,6 +330,8 @@ int main(int argc, char** argv) {
       o.out_path = argv[++i];
     } else if (arg == "--log-level" && has_value) {
       o.log_level = argv[++i];
+    } else if (arg == "--report" && has_value) {
+      o.report_path = argv[++i];
     } else if (arg == "--smooth" && has_value) {
       o.smooth_path = argv[++i];
     } else if (arg == "--export-points" && has_value) {
@@ -339,6 +349,10 @@ int main(int argc, char** argv) {
       usage(stderr);
       return kExitUsage;
     }
+  }
+  if (!o.report_path.empty() && o.out_path.empty()) {
+    std::fprintf(stderr, "hvac-twin-replay: --report needs --out FILE\n");
+    return kExitUsage;
   }
   if (o.config_path.empty() || o.inputs.empty()) {
     usage(stderr);

@@ -198,3 +198,32 @@ TEST_CASE("the golden recording smoothed: one piece, its end the filter's", "[re
   CHECK(ratios[ratios.size() / 2] < 0.98);
   CHECK(ratios.back() < 1.05);
 }
+
+TEST_CASE("the replay's HTML report is one self-contained file with every chart",
+          "[replay][golden]") {
+  ScratchDir dir("golden-report");
+  const std::string out = dir / "replay.csv", html = dir / "report.html";
+  Run r = replay(dir, {"--config", kConfig, "--report", html, kRecording});
+  CHECK(r.rc == 2);  // --report needs --out
+  r = replay(dir, {"--config", kConfig, "--out", out, "--report", html, kRecording});
+  INFO(r.err);
+  REQUIRE(r.rc == 0);
+  std::ifstream in(html);
+  const std::string page(std::istreambuf_iterator<char>(in), {});
+  CHECK(page.rfind("<!DOCTYPE html>", 0) == 0);
+  CHECK(page.find("Unit hp1: 149 cycles") != std::string::npos);
+  // Nothing fetched: no script, no link, no external reference.
+  CHECK(page.find("<script") == std::string::npos);
+  CHECK(page.find("http") == std::string::npos);
+  CHECK(page.find("<link") == std::string::npos);
+  // A chart per measured point (7), the test ratios, the virtual sensors the heat pump has (all 14
+  // of the report's list), the charge and the CUSUMs; each with a text title.
+  std::size_t charts = 0;
+  for (std::size_t at = page.find("<svg"); at != std::string::npos; at = page.find("<svg", at + 1))
+    ++charts;
+  CHECK(charts == 7 + 1 + 14 + 2);
+  CHECK(page.find("<title>suction_pressure</title>") != std::string::npos);
+  CHECK(page.find("<title>Leak CUSUMs</title>") != std::string::npos);
+  CHECK(page.find("nan") == std::string::npos);
+  CHECK(page.find("inf") == std::string::npos);
+}
