@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -298,7 +299,12 @@ int replay(const Options& o) {
     return 1;
   }
   if (!o.report_path.empty()) {
-    hvac_twin::replay::write_report(o.out_path, o.smooth_path, unit_id, o.report_path);
+    std::map<std::string, std::string> units;
+    for (const auto& s : model->layout().outputs)
+      units[s.name] = s.unit;
+    for (const auto& p : unit.points)
+      units[p.name] = p.unit;
+    hvac_twin::replay::write_report(o.out_path, o.smooth_path, unit_id, units, o.report_path);
     log->info("{}: report written", o.report_path);
   }
   const double s =

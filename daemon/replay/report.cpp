@@ -219,7 +219,12 @@ std::vector<double> add(const std::vector<double>& a, const std::vector<double>&
 }  // namespace
 
 void write_report(const std::string& replay_csv, const std::string& smoothed_csv,
-                  const std::string& unit, const std::string& html_path) {
+                  const std::string& unit, const std::map<std::string, std::string>& units,
+                  const std::string& html_path) {
+  const auto unit_of = [&](const std::string& name) {
+    const auto it = units.find(name);
+    return it == units.end() ? std::string("?") : it->second;
+  };
   const Table t = read_table(replay_csv);
   if (t.rows.empty()) throw std::runtime_error(replay_csv + ": no cycles to report");
   Table smooth;
@@ -276,7 +281,7 @@ void write_report(const std::string& replay_csv, const std::string& smoothed_csv
   o << "</table>\n";
   for (const auto& p : points) {
     const auto pred = t.numbers(p + "_predicted");
-    chart(o, p, "point unit", "measured (blue) against the model's prediction (orange)", hours,
+    chart(o, p, unit_of(p), "measured (blue) against the model's prediction (orange)", hours,
           {{"measured", "#1f5fbf", add(pred, t.numbers(p + "_innovation"), 1.0)},
            {"predicted", "#d9730d", pred}});
   }
@@ -312,7 +317,7 @@ void write_report(const std::string& replay_csv, const std::string& smoothed_csv
     const auto v = t.numbers(name), s = t.numbers(std::string(name) + "_sigma");
     std::vector<Line> lines{{"estimate", "#1f5fbf", v}};
     if (smooth.has(name)) lines.push_back({"smoothed", "#d9730d", smooth.numbers(name), true});
-    chart(o, name, "model unit", "the filter's estimate with its ± 2σ band", hours, lines,
+    chart(o, name, unit_of(name), "the filter's estimate with its ± 2σ band", hours, lines,
           {{add(v, s, -2.0), add(v, s, 2.0), "#1f5fbf"}});
   }
 

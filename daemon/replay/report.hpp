@@ -6,6 +6,7 @@
 // Long replays are drawn in at most kMaxBins time bins (the bin's mean).
 #pragma once
 
+#include <map>
 #include <string>
 
 namespace hvac_twin::replay {
@@ -13,8 +14,10 @@ namespace hvac_twin::replay {
 inline constexpr std::size_t kMaxBins = 1200;
 
 // Reads the replay's CSV (csv_sink.hpp) and, when not empty, the smoothed CSV (smoothing.hpp),
-// and writes the report. Throws std::runtime_error naming a file that cannot be read or written.
+// and writes the report. `units`: the engineering unit of each point and model output, by name.
+// Throws std::runtime_error naming a file that cannot be read or written.
 void write_report(const std::string& replay_csv, const std::string& smoothed_csv,
-                  const std::string& unit, const std::string& html_path);
+                  const std::string& unit, const std::map<std::string, std::string>& units,
+                  const std::string& html_path);
 
 }  // namespace hvac_twin::replay

@@ -234,6 +234,10 @@ TEST_CASE("the replay's HTML report is one self-contained file with every chart"
   CHECK(charts == 7 + 1 + 14 + 2);
   CHECK(page.find("<title>suction_pressure</title>") != std::string::npos);
   CHECK(page.find("<title>Leak CUSUMs</title>") != std::string::npos);
+  // Each chart in its signal's unit: the point's configured one, the model output's.
+  CHECK(page.find("<b>suction_pressure</b> [kPa]") != std::string::npos);
+  CHECK(page.find("<b>condenser_outlet_pressure</b> [Pa]") != std::string::npos);
+  CHECK(page.find("[?]") == std::string::npos);
   CHECK(page.find("nan") == std::string::npos);
   CHECK(page.find("inf") == std::string::npos);
 }
