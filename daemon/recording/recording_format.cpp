@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <type_traits>
 
 #include "daemon/runtime/checkpoint.hpp"
 
@@ -33,6 +34,21 @@ std::string text_field(const nlohmann::json& j, const char* key) {
   if (it == j.end() || !it->is_string())
     throw RecordingError(std::string("header: \"") + key + "\" is missing or not a string");
   return it->get<std::string>();
+}
+
+// An optional integer field. A float ("run_ns": 1e300) would reach nlohmann's static_cast to the
+// integer type, which is undefined behaviour out of range, so only JSON integers are read.
+template <typename Int>
+Int integer_field(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end()) return Int{0};
+  const bool fits =
+      it->is_number_unsigned()
+          ? it->get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<Int>::max())
+          : it->is_number_integer() && (std::is_signed_v<Int> || it->get<std::int64_t>() >= 0);
+  if (!fits)
+    throw RecordingError(std::string("header: \"") + key + "\" is not an integer in range");
+  return it->get<Int>();
 }
 
 }  // namespace
@@ -82,8 +98,8 @@ RecordingHeader header_of(const nlohmann::json& j) {
   if (period == j.end() || !period->is_number() || !(period->get<double>() > 0.0))
     throw RecordingError("header: \"period_s\" is missing or not a positive number");
   h.period_s = period->get<double>();
-  h.run_ns = j.value("run_ns", std::int64_t{0});
-  h.sequence = j.value("sequence", std::uint64_t{0});
+  h.run_ns = integer_field<std::int64_t>(j, "run_ns");
+  h.sequence = integer_field<std::uint64_t>(j, "sequence");
   const auto points = j.find("points");
   if (points == j.end() || !points->is_array() || points->size() > kMaxPoints)
     throw RecordingError("header: \"points\" is missing or not an array of at most 4096");

@@ -361,7 +361,21 @@ TEST_CASE("a file that is not a readable recording is refused, naming it and why
     refused(raw_header(R"({"format": "hvac-twin recording", "version": 1, "site": "s",
                            "unit": "u", "model": "m", "period_s": 1, "run_ns": "x",
                            "points": []})"),
-            "type must be number");
+            "\"run_ns\" is not an integer in range");
+  }
+  SECTION("a header integer that is a float or out of range") {
+    // Found by the fuzz target in CI: a float reached nlohmann's cast to int64_t (undefined
+    // behaviour out of range, reported by UBSan).
+    auto with = [&](const std::string& field) {
+      return raw_header(R"({"format": "hvac-twin recording", "version": 1, "site": "s",
+                            "unit": "u", "model": "m", "period_s": 1, )" +
+                        field + R"(, "points": []})");
+    };
+    refused(with(R"("run_ns": 1e300)"), "\"run_ns\" is not an integer in range");
+    refused(with(R"("run_ns": 12.5)"), "\"run_ns\" is not an integer in range");
+    refused(with(R"("run_ns": 9223372036854775808)"), "\"run_ns\" is not an integer in range");
+    refused(with(R"("sequence": -1)"), "\"sequence\" is not an integer in range");
+    refused(with(R"("sequence": 1e30)"), "\"sequence\" is not an integer in range");
   }
   SECTION("a header without its points") {
     refused(raw_header(R"({"format": "hvac-twin recording", "version": 1, "site": "s",
