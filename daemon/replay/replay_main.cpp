@@ -18,6 +18,7 @@
 #include "daemon/recording/recording_reader.hpp"
 #include "daemon/replay/csv_points.hpp"
 #include "daemon/replay/csv_sink.hpp"
+#include "daemon/replay/cycle_reader.hpp"
 #include "daemon/replay/recording_source.hpp"
 #include "daemon/replay/report.hpp"
 #include "daemon/replay/smoothing.hpp"
@@ -72,63 +73,12 @@ void usage(std::FILE* to) {
       to);
 }
 
-// The recording's points are the configured unit's: same names, order, units and roles.
-void check_points(const RecordingReader& r, const hvac_twin::config::UnitConfig& unit) {
-  const auto& points = r.header().points;
-  if (points.size() != unit.points.size())
-    throw RecordingError(r.path() + ": " + std::to_string(points.size()) +
-                         " points recorded, the configuration's unit " + unit.id + " has " +
-                         std::to_string(unit.points.size()));
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const auto& c = unit.points[i];
-    if (points[i].name != c.name || points[i].unit != c.unit)
-      throw RecordingError(r.path() + ": point " + std::to_string(i + 1) + " recorded as " +
-                           points[i].name + " [" + points[i].unit + "], the configuration has " +
-                           c.name + " [" + c.unit + "]");
-  }
-}
-
 struct Options {
   std::string config_path, unit, out_path, export_path, smooth_path, report_path,
       log_level = "warn";
   double input_hold_s = 0.0;
   std::vector<std::string> inputs;
 };
-
-bool is_csv(const std::string& path) {
-  return path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
-}
-
-// The files to replay, in order: files as given, directories expanded to the unit's files.
-std::vector<std::string> expand(const Options& o, const std::string& unit) {
-  std::vector<std::string> files;
-  for (const auto& in : o.inputs) {
-    std::error_code ec;
-    if (!std::filesystem::is_directory(in, ec)) {
-      files.push_back(in);
-      continue;
-    }
-    const auto found = hvac_twin::recording::unit_recordings(in, unit);
-    if (found.empty()) throw RecordingError(in + ": no recording of unit " + unit);
-    files.insert(files.end(), found.begin(), found.end());
-  }
-  return files;
-}
-
-// The unit of the replay: --unit, or the first file's (a directory: the configuration's only
-// unit).
-std::string pick_unit(const Options& o, const hvac_twin::config::Config& config) {
-  if (!o.unit.empty()) return o.unit;
-  std::error_code ec;
-  if (is_csv(o.inputs.front())) {
-    if (config.units.size() == 1) return config.units.front().id;
-    throw RecordingError(o.inputs.front() + ": a CSV and several units: name one with --unit");
-  }
-  if (!std::filesystem::is_directory(o.inputs.front(), ec))
-    return RecordingReader(o.inputs.front()).header().unit;
-  if (config.units.size() == 1) return config.units.front().id;
-  throw RecordingError(o.inputs.front() + ": a directory and several units: name one with --unit");
-}
 
 // The recordings' GOOD point values as a points CSV (csv_points.hpp), one row per cycle at the
 // cycle's model time, so that replaying it runs the same cycles.
@@ -147,7 +97,7 @@ int export_points(const std::vector<std::string>& files, const hvac_twin::config
   RecordedCycle cycle;
   for (const auto& f : files) {
     RecordingReader reader(f);
-    check_points(reader, unit);
+    hvac_twin::replay::check_points(reader, unit);
     while (reader.next(cycle)) {
       if (first) {
         t0 = cycle.timestamp_ns / 1'000'000'000 * 1'000'000'000;  // whole seconds
@@ -179,7 +129,7 @@ int replay(const Options& o) {
     return hvac_twin::config::kExitConfigError;
   }
   hvac_twin::config::Config config = std::move(*loaded.config);
-  const std::string unit_id = pick_unit(o, config);
+  const std::string unit_id = hvac_twin::replay::pick_unit(o.unit, o.inputs, config);
   std::size_t unit_index = config.units.size();
   for (std::size_t i = 0; i < config.units.size(); ++i)
     if (config.units[i].id == unit_id) unit_index = i;
@@ -194,7 +144,7 @@ int replay(const Options& o) {
   unit.estimator.checkpoint_every_cycles = 0;
   unit.estimator.deadline_s = 1e9;
 
-  const std::vector<std::string> files = expand(o, unit_id);
+  const std::vector<std::string> files = hvac_twin::replay::expand_inputs(o.inputs, unit_id);
   if (!o.export_path.empty()) return export_points(files, unit, o.export_path);
   std::FILE* out = stdout;
   if (!o.out_path.empty()) {
@@ -240,9 +190,14 @@ int replay(const Options& o) {
                                                                   smoothing.get());
     if (smoothing) smoothing->attach(pipeline.get());
   };
-  std::uint64_t cycles = 0, torn = 0;
+  std::uint64_t cycles = 0;
   RecordedCycle cycle;
-  auto run_one = [&] {
+  const auto started = std::chrono::steady_clock::now();
+  hvac_twin::replay::CycleReader reader(files, unit, o.input_hold_s,
+                                        [&log](const std::string& w) { log->warn("{}", w); });
+  bool new_run = false;
+  while (reader.next(cycle, new_run)) {
+    if (new_run) new_pipeline();
     source->set(cycle);
     const auto outcome =
         pipeline->run_cycle(hvac_twin::runtime::Tick{.index = cycle.cycle,
@@ -250,42 +205,6 @@ int replay(const Options& o) {
                                                      .wall_ns = cycle.timestamp_ns});
     if (smoothing) smoothing->end_cycle(cycle.cycle, cycle.timestamp_ns, outcome);
     ++cycles;
-  };
-  const auto started = std::chrono::steady_clock::now();
-  if (is_csv(files.front())) {
-    if (files.size() != 1) throw RecordingError(files[1] + ": one CSV per replay");
-    hvac_twin::replay::CsvPoints points_csv(files.front(), unit, o.input_hold_s);
-    for (const auto& m : points_csv.missing_points())
-      log->warn("{}: no column for point {}: it is never read", files.front(), m);
-    pipeline = std::make_unique<hvac_twin::runtime::UnitPipeline>(config, unit_index, io, log);
-    while (points_csv.next(cycle))
-      run_one();
-  }
-  std::int64_t run = 0;
-  for (const auto& path : is_csv(files.front()) ? std::vector<std::string>{} : files) {
-    if (is_csv(path)) throw RecordingError(path + ": a CSV among recordings");
-    RecordingReader reader(path);
-    check_points(reader, unit);
-    if (reader.header().unit != unit_id)
-      throw RecordingError(path + ": a recording of unit " + reader.header().unit + ", not " +
-                           unit_id);
-    if (!pipeline || reader.header().run_ns != run) {
-      // A recording from another run of the daemon: its estimator started again too.
-      if (pipeline)
-        log->warn(
-            "{}: recorded by another run of the daemon; the estimator starts again from the "
-            "measured conditions (a daemon that resumed from a checkpoint did not)",
-            path);
-      new_pipeline();
-      run = reader.header().run_ns;
-    }
-    while (reader.next(cycle))
-      run_one();
-    if (reader.torn_tail()) {
-      ++torn;
-      log->warn("{}: the last record (at byte {}) is torn (a write a crash interrupted): skipped",
-                path, reader.torn_offset());
-    }
   }
   if (smoothing) {
     std::FILE* f = std::fopen(o.smooth_path.c_str(), "w");
@@ -314,7 +233,7 @@ int replay(const Options& o) {
                "cycles/s)%s\n",
                static_cast<unsigned long long>(cycles), unit_id.c_str(), files.size(), s,
                s > 0 ? static_cast<double>(cycles) / s : 0.0,
-               torn > 0 ? ", torn last records skipped" : "");
+               reader.torn_tails() > 0 ? ", torn last records skipped" : "");
   return 0;
 }
 
