@@ -144,6 +144,9 @@ struct UnitConfig {
                                     // without a default fed by one input/disturbance point
   ModelConfig model;                // required
   EstimatorConfig estimator;        // required (for measurement_noise)
+  // A calibration file (config/calibration_file.hpp) as written: absolute, or relative to the
+  // configuration file's directory. load_config_file() applies it to model and estimator.
+  std::string calibration;
 };
 
 // DDS Security with Cyclone DDS's built-in plugins: authentication by X.509 certificates

@@ -6,10 +6,12 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <span>
 #include <sstream>
 
+#include "config/calibration_file.hpp"
 #include "config/detail/json_tree.hpp"
 #include "config/detail/limits.hpp"
 #include "config/detail/reader.hpp"
@@ -116,27 +118,111 @@ LoadResult load_config_text(std::string_view json_text, const ModelCatalog& mode
   return result;
 }
 
-LoadResult load_config_file(const std::string& path, const ModelCatalog& models) {
-  const auto fail = [](std::string message) {
-    LoadResult r;
-    r.errors.push_back({"", std::move(message)});
-    return r;
-  };
+namespace {
+
+// Reads a whole file of at most kMaxFileBytes into `text`; an empty string, or what was wrong.
+std::string read_file(const std::string& path, std::string& text) {
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
-  if (ec) return fail("cannot read the file: " + ec.message());
-  if (!std::filesystem::is_regular_file(status))
-    return fail("cannot read the file: not a regular file");
+  if (ec) return "cannot read the file: " + ec.message();
+  if (!std::filesystem::is_regular_file(status)) return "cannot read the file: not a regular file";
   const auto size = std::filesystem::file_size(path, ec);
   if (!ec && size > kMaxFileBytes)
-    return fail("the file has " + std::to_string(size) +
-                " bytes; a configuration file is at most 16 MiB");
+    return "the file has " + std::to_string(size) + " bytes; the limit is 16 MiB";
   std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(std::string("cannot read the file: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return fail(std::string("cannot read the file: ") + std::strerror(errno));
-  return load_config_text(text.str(), models);
+  if (!in) return std::string("cannot read the file: ") + std::strerror(errno);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return std::string("cannot read the file: ") + std::strerror(errno);
+  text = buffer.str();
+  return {};
+}
+
+std::string pointer_token(const std::string& key) {
+  std::string out;
+  for (const char c : key)
+    out += c == '~' ? std::string("~0") : c == '/' ? std::string("~1") : std::string(1, c);
+  return out;
+}
+
+// The units' calibration files applied to the (valid) document `text`: each value inserted where
+// calibration_file.hpp says, the document validated again, and an error about an inserted value
+// told as an error in the calibration file.
+LoadResult with_calibrations(const std::string& path, const std::string& text, const Config& config,
+                             const ModelCatalog& models) {
+  auto doc = nlohmann::ordered_json::parse(text);
+  LoadResult out;
+  struct Inserted {
+    std::string pointer, unit_pointer, where;  // in the document; the unit's key; file + key
+  };
+  std::vector<Inserted> inserted;
+  for (std::size_t i = 0; i < config.units.size(); ++i) {
+    const auto& unit = config.units[i];
+    if (unit.calibration.empty()) continue;
+    const std::string at = "/units/" + std::to_string(i) + "/calibration";
+    std::filesystem::path file(unit.calibration);
+    if (file.is_relative()) file = std::filesystem::path(path).parent_path() / file;
+    std::string cal_text, error;
+    if (const auto e = read_file(file.string(), cal_text); !e.empty()) {
+      out.errors.push_back({at, file.string() + ": " + e});
+      continue;
+    }
+    const auto cal = read_calibration(cal_text, error);
+    if (!cal) {
+      out.errors.push_back({at, file.string() + ": " + error});
+      continue;
+    }
+    if (cal->model != unit.model.type || cal->unit != unit.id) {
+      out.errors.push_back({at, file.string() + ": a calibration of unit " + cal->unit +
+                                    " (model " + cal->model + "), not of unit " + unit.id +
+                                    " (model " + unit.model.type + ")"});
+      continue;
+    }
+    auto& ju = doc["units"][i];
+    auto insert = [&](const std::map<std::string, double>& values, const char* section,
+                      const char* map, const char* key) {
+      for (const auto& [name, value] : values) {
+        auto& target = ju[section][map];
+        const std::string pointer =
+            "/units/" + std::to_string(i) + "/" + section + "/" + map + "/" + pointer_token(name);
+        const std::string where = file.string() + ": /" + key + "/" + pointer_token(name);
+        if (target.contains(name)) {
+          out.errors.push_back(
+              {at, where + ": the configuration sets it too (" + pointer + "); keep one"});
+          continue;
+        }
+        target[name] = value;
+        inserted.push_back({pointer, at, where});
+      }
+    };
+    insert(cal->parameters, "model", "parameters", "parameters");
+    insert(cal->initial_std, "estimator", "initial_std", "initial_std");
+  }
+  if (!out.errors.empty()) return out;
+  out = load_config_text(doc.dump(), models);
+  for (auto& e : out.errors)
+    for (const auto& ins : inserted)
+      if (e.pointer == ins.pointer || e.pointer.starts_with(ins.pointer + "/")) {
+        e.message = ins.where + ": " + e.message;
+        e.pointer = ins.unit_pointer;
+      }
+  return out;
+}
+
+}  // namespace
+
+LoadResult load_config_file(const std::string& path, const ModelCatalog& models) {
+  std::string text;
+  if (const auto e = read_file(path, text); !e.empty()) {
+    LoadResult r;
+    r.errors.push_back({"", e});
+    return r;
+  }
+  LoadResult r = load_config_text(text, models);
+  if (!r.config) return r;
+  const bool calibrated = std::any_of(r.config->units.begin(), r.config->units.end(),
+                                      [](const UnitConfig& u) { return !u.calibration.empty(); });
+  return calibrated ? with_calibrations(path, text, *r.config, models) : r;
 }
 
 std::string format_errors(const std::vector<ConfigError>& errors, std::string_view source,

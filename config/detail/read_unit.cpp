@@ -25,6 +25,7 @@ UnitConfig read_unit(const Ref& ref, Errors& errors, const UnitContext& context)
                                      context.hang_timeout_s};
   u.estimator = read_estimator(r.require("estimator"), errors, estimator_context);
   u.points = std::move(points.points);
+  r.string("calibration", u.calibration);
   r.finish();
 
   if (modbus.max_registers.present() && u.modbus.max_registers_per_request < 2 &&
