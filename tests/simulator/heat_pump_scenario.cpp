@@ -13,8 +13,11 @@
 //    compressor trips its discharge-temperature protection first) and the truth failed.
 //  - fans: indoor at rated flow by day, 70 % at night; outdoor following the compressor speed
 //  - optional leak: leak_g_per_h from leak_start_s on; optional truth charge
+//  - commissioning (optional): no thermostat or superheat loop; six operating points held for
+//    45 min each, in turn (kCommissioningPoints), the weather and gains as on any day
 // The day starts at 08:00 (t = 0), from the model's start-up state at the scenario's conditions.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -56,6 +59,15 @@ class HeatPumpScenario final : public Scenario {
     if (L.q_int != kNone) x[L.q_int] = gains_;
     if (L.leak != kNone) x[L.leak] = t >= o_.leak_start_s ? o_.leak_g_per_h : 0.0;
 
+    if (o_.commissioning) {
+      const auto& point = kCommissioningPoints[static_cast<std::size_t>(t / kCommissioningHoldS) %
+                                               kCommissioningPoints.size()];
+      u[kCompressorSpeed] = point[0];
+      u[kValveOpening] = point[1];
+      u[kIndoorFan] = point[2];
+      u[kOutdoorFan] = point[3];
+      return;
+    }
     // Whether the unit stood over the last period: u holds what the caller applied (the day
     // starts with the unit running, from the model's start-up state).
     const bool stood = t > 0.0 && u[kCompressorSpeed] < kStoppedBelowHz;
@@ -78,6 +90,16 @@ class HeatPumpScenario final : public Scenario {
 
  private:
   static constexpr double kStartHz = 30.0, kRampHzPerS = 2.0, kStartOpening = 0.35;
+  // Speed [Hz], valve opening, indoor and outdoor fan: rated, part and high load, each fan
+  // turned down, a closed-in valve.
+  static constexpr double kCommissioningHoldS = 2700.0;
+  static constexpr std::array<std::array<double, 4>, 6> kCommissioningPoints{
+      {{50.0, 0.374, 1.0, 1.0},
+       {35.0, 0.28, 1.0, 1.0},
+       {65.0, 0.46, 1.0, 1.0},
+       {50.0, 0.374, 0.7, 1.0},
+       {50.0, 0.374, 1.0, 0.6},
+       {50.0, 0.33, 1.0, 1.0}}};
 
   static double outdoor(double t) {
     const double clock = std::fmod(kStartOfDay + t, kDay);

@@ -58,6 +58,11 @@ void usage(std::FILE* to) {
       "  --point NAME=V@H1-H2  the point NAME reads V (in its own unit) from hour H1 to H2 of\n"
       "                      the scenario: a transmitter gone wrong (repeatable)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
+      "  --commissioning     heat pump: hold six operating points for 45 min each instead of\n"
+      "                      the day's thermostat and superheat loops\n"
+      "  --write-points F H  no Modbus server: simulate H model hours as fast as possible and\n"
+      "                      write every step's point values as a points CSV (the format\n"
+      "                      hvac-twin-replay and hvac-twin-calibrate read), then exit\n"
       "  --duration S        stop after S wall seconds (default: run until SIGINT/SIGTERM)\n"
       "  --quiet             no progress lines\n"
       "\n"
@@ -85,7 +90,8 @@ struct PointOverride {
 };
 
 struct Args {
-  std::string config, unit, truth_csv;
+  std::string config, unit, truth_csv, points_csv;
+  double points_hours = 0.0;
   long port = -1;
   double time_scale = 0.0, duration = 0.0;
   bool quiet = false;
@@ -105,6 +111,8 @@ bool parse(int argc, char** argv, Args& a) {
       a.quiet = true;
     } else if (arg == "--as-configured") {
       a.sim.truth_closures = false;
+    } else if (arg == "--commissioning") {
+      a.sim.scenario.commissioning = true;
     } else if (v == nullptr) {
       return false;
     } else if (arg == "--config") {
@@ -113,6 +121,11 @@ bool parse(int argc, char** argv, Args& a) {
       a.unit = take();
     } else if (arg == "--truth-csv") {
       a.truth_csv = take();
+    } else if (arg == "--write-points") {
+      a.points_csv = take();
+      if (i + 1 >= argc) return false;
+      a.points_hours = std::stod(argv[++i]);
+      if (!(a.points_hours > 0.0)) return false;
     } else if (arg == "--port") {
       a.port = std::stol(take());
     } else if (arg == "--seed") {
@@ -151,6 +164,43 @@ bool parse(int argc, char** argv, Args& a) {
     }
   }
   return !a.config.empty() && a.sim.step_s > 0.0;
+}
+
+// --write-points: the points CSV of args.points_hours of the scenario, from 2026-07-01 08:00 UTC.
+int write_points(hvac_twin::sim::Simulation& sim, const hvac_twin::config::UnitConfig& unit,
+                 const Args& args) {
+  std::FILE* out = std::fopen(args.points_csv.c_str(), "w");
+  if (out == nullptr) throw std::runtime_error("cannot write " + args.points_csv);
+  std::fprintf(out, "# hvac-twin-sim: unit %s, seed %llu%s\ntime", unit.id.c_str(),
+               static_cast<unsigned long long>(args.sim.seed),
+               args.sim.scenario.commissioning ? ", commissioning" : "");
+  for (const auto& p : unit.points)
+    std::fprintf(out, ",%s", p.name.c_str());
+  std::fputc('\n', out);
+  constexpr long long kStart = 1782892800;  // 2026-07-01T08:00:00Z
+  std::ofstream truth;
+  if (!args.truth_csv.empty()) {
+    truth.open(args.truth_csv);
+    if (!truth) throw std::runtime_error("cannot write " + args.truth_csv);
+    sim.write_csv_header(truth);
+  }
+  std::vector<double> values(unit.points.size());
+  while (true) {
+    if (truth.is_open())
+      sim.write_csv_row(truth, (kStart + static_cast<long long>(sim.time_s())) * 1'000'000'000);
+    sim.point_values(values);
+    std::fprintf(out, "%.3f", static_cast<double>(kStart) + sim.time_s());
+    for (const double v : values)
+      std::fprintf(out, ",%.6g", v);
+    std::fputc('\n', out);
+    if (sim.time_s() >= args.points_hours * 3600.0 - 1e-9) break;
+    if (!sim.step()) {
+      std::fprintf(stderr, "hvac-twin-sim: truth integration failed at t = %g s\n", sim.time_s());
+      std::fclose(out);
+      return 1;
+    }
+  }
+  return std::fclose(out) == 0 ? 0 : 1;
 }
 
 }  // namespace
@@ -199,6 +249,7 @@ int main(int argc, char** argv) {
 
   try {
     hvac_twin::sim::Simulation sim(*unit, args.sim);
+    if (!args.points_csv.empty()) return write_points(sim, *unit, args);
     hvac_twin::test_support::ModbusTestServerOptions so;
     so.port = static_cast<std::uint16_t>(args.port >= 0 ? args.port : unit->modbus.port);
     so.unit_id = unit->modbus.unit_id;
