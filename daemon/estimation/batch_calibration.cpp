@@ -45,7 +45,8 @@ class Fit {
         const auto o = static_cast<Index>(problem_.measured[k]);
         fitted[static_cast<Index>(k)] = y[o];
         const double meas = win.y[problem_.measured[k]];
-        if (!std::isfinite(meas)) continue;
+        // Not measured here, or an output of held states only (the zone air): no information.
+        if (!std::isfinite(meas) || dy.row(o).isZero(0.0)) continue;
         const double s = problem_.measured_std[k];
         rows.push_back((meas - y[o]) / s);
         jrows.emplace_back(-dy.row(o) / s);

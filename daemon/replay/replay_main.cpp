@@ -22,6 +22,7 @@
 #include "daemon/replay/recording_source.hpp"
 #include "daemon/replay/report.hpp"
 #include "daemon/replay/smoothing.hpp"
+#include "daemon/replay/tool_cli.hpp"
 #include "daemon/runtime/logging.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
 #include "plant_models/catalog.hpp"
@@ -29,12 +30,11 @@
 namespace {
 
 using hvac_twin::recording::RecordedCycle;
-using hvac_twin::recording::RecordingError;
 using hvac_twin::recording::RecordingReader;
 
-constexpr int kExitUsage = 2;
-constexpr int kExitDataError = 65;  // sysexits EX_DATAERR: a bad recording
-constexpr int kExitNoInput = 66;    // EX_NOINPUT
+using hvac_twin::replay::kExitNoInput;
+using hvac_twin::replay::kExitUsage;
+using hvac_twin::replay::text_option;
 
 void usage(std::FILE* to) {
   std::fputs(
@@ -241,40 +241,21 @@ int replay(const Options& o) {
 
 int main(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view arg = argv[i];
-    const bool has_value = i + 1 < argc;
-    if (arg == "--help" || arg == "-h") {
-      usage(stdout);
-      return 0;
-    } else if (arg == "--config" && has_value) {
-      o.config_path = argv[++i];
-    } else if (arg == "--unit" && has_value) {
-      o.unit = argv[++i];
-    } else if (arg == "--out" && has_value) {
-      o.out_path = argv[++i];
-    } else if (arg == "--log-level" && has_value) {
-      o.log_level = argv[++i];
-    } else if (arg == "--report" && has_value) {
-      o.report_path = argv[++i];
-    } else if (arg == "--smooth" && has_value) {
-      o.smooth_path = argv[++i];
-    } else if (arg == "--export-points" && has_value) {
-      o.export_path = argv[++i];
-    } else if (arg == "--input-hold-s" && has_value) {
-      o.input_hold_s = std::strtod(argv[++i], nullptr);
-      if (!(o.input_hold_s > 0.0)) {
-        std::fprintf(stderr, "hvac-twin-replay: --input-hold-s: expected seconds > 0\n");
-        return kExitUsage;
-      }
-    } else if (!arg.starts_with("--")) {
-      o.inputs.emplace_back(arg);
-    } else {
-      std::fprintf(stderr, "hvac-twin-replay: unknown or incomplete option \"%s\"\n\n", argv[i]);
-      usage(stderr);
-      return kExitUsage;
-    }
-  }
+  const hvac_twin::replay::ToolOption options[] = {text_option("--config", o.config_path),
+                                                   text_option("--unit", o.unit),
+                                                   text_option("--out", o.out_path),
+                                                   text_option("--log-level", o.log_level),
+                                                   text_option("--report", o.report_path),
+                                                   text_option("--smooth", o.smooth_path),
+                                                   text_option("--export-points", o.export_path),
+                                                   {"--input-hold-s", [&o](const std::string& v) {
+                                                      return hvac_twin::replay::parse_amount(
+                                                          v, true, o.input_hold_s);
+                                                    }}};
+  if (const int rc = hvac_twin::replay::parse_tool_args(argc, argv, "hvac-twin-replay", options,
+                                                        o.inputs, usage);
+      rc >= 0)
+    return rc;
   if (!o.report_path.empty() && o.out_path.empty()) {
     std::fprintf(stderr, "hvac-twin-replay: --report needs --out FILE\n");
     return kExitUsage;
@@ -283,13 +264,5 @@ int main(int argc, char** argv) {
     usage(stderr);
     return o.config_path.empty() ? kExitUsage : kExitNoInput;
   }
-  try {
-    return replay(o);
-  } catch (const RecordingError& e) {
-    std::fprintf(stderr, "hvac-twin-replay: %s\n", e.what());
-    return kExitDataError;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hvac-twin-replay: %s\n", e.what());
-    return 1;
-  }
+  return hvac_twin::replay::run_tool("hvac-twin-replay", [&o] { return replay(o); });
 }
