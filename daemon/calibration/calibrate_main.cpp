@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <exception>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -17,6 +18,7 @@
 #include "config/calibration_file.hpp"
 #include "config/load.hpp"
 #include "config/units.hpp"
+#include "daemon/calibration/calibration_report.hpp"
 #include "daemon/calibration/steady_windows.hpp"
 #include "daemon/estimation/batch_calibration.hpp"
 #include "daemon/replay/cycle_reader.hpp"
@@ -37,7 +39,7 @@ using hvac_twin::replay::text_option;
 void usage(std::FILE* to) {
   std::fputs(
       "usage: hvac-twin-calibrate --config FILE --charge KG [--unit ID] [--fit P1,P2,...]\n"
-      "                           [--out FILE] [--settle-s S] [--min-window-s S]\n"
+      "                           [--out FILE] [--report FILE] [--settle-s S] [--min-window-s S]\n"
       "                           [--input-hold-s S] [--log-level LEVEL] INPUT...\n"
       "\n"
       "Fits the unit model's uncertain parameters (its factors: coil UA, compressor flow and\n"
@@ -54,6 +56,8 @@ void usage(std::FILE* to) {
       "  --fit LIST        the parameters to fit (default: every factor the unit's model\n"
       "                    carries as a state, but those it only considers)\n"
       "  --out FILE        the calibration file (default: standard output)\n"
+      "  --report FILE     also write an HTML report (one file, SVG charts): the parameters\n"
+      "                    against their prior, each point's residuals window by window\n"
       "  --settle-s S      after an input changes, wait this long before a window (900)\n"
       "  --min-window-s S  the shortest steady window used (300)\n"
       "  --input-hold-s S  a CSV input reading stays GOOD this long (as hvac-twin-replay)\n"
@@ -65,7 +69,7 @@ void usage(std::FILE* to) {
 }
 
 struct Options {
-  std::string config_path, unit, out_path, log_level = "info";
+  std::string config_path, unit, out_path, report_path, log_level = "info";
   std::vector<std::string> fit, inputs;
   double charge = std::nan(""), input_hold_s = 0.0;
   cal::WindowOptions windows;
@@ -288,11 +292,22 @@ int run(const Options& o) {
                            {"end_s", problem.windows[w].end_s},
                            {"used", result.windows[w].used},
                            {"residuals", residuals}});
+    if (!result.windows[w].used) window_json.back()["why"] = result.windows[w].error;
   }
   file.fit = {{"charge_kg", o.charge},           {"inputs", o.inputs},
               {"chi_square", result.chi_square}, {"chi_square_nominal", result.chi_square_nominal},
               {"residuals", result.residuals},   {"sigma_scale", std::sqrt(result.birge)},
               {"parameters", fit_json},          {"windows", window_json}};
+  if (!o.report_path.empty()) {
+    std::map<std::string, std::string> units;
+    std::map<std::string, double> sigma;
+    for (std::size_t k = 0; k < problem.measured.size(); ++k) {
+      const auto& signal = layout.outputs[problem.measured[k]];
+      units[signal.name] = signal.unit;
+      sigma[signal.name] = problem.measured_std[k];
+    }
+    cal::write_calibration_report(file.fit, unit_id, units, sigma, o.report_path);
+  }
   const std::string text = hvac_twin::config::write_calibration(file);
   if (o.out_path.empty()) {
     std::fputs(text.c_str(), stdout);
@@ -321,6 +336,7 @@ int main(int argc, char** argv) {
       text_option("--config", o.config_path),
       text_option("--unit", o.unit),
       text_option("--out", o.out_path),
+      text_option("--report", o.report_path),
       text_option("--log-level", o.log_level),
       {"--fit",
        [&o](const std::string& v) {

@@ -3,15 +3,13 @@
 // model's prediction and how surprised the filter was (its test ratio against the chi-square
 // gate), the virtual sensors with their +-2 sigma band (and the smoothed estimate, if any), the
 // charge against its references and the leak detector's CUSUMs against their threshold.
-// Long replays are drawn in at most kMaxBins time bins (the bin's mean).
+// Long replays are drawn in at most kMaxBins time bins (the bin's mean; svg_chart.hpp).
 #pragma once
 
 #include <map>
 #include <string>
 
 namespace hvac_twin::replay {
-
-inline constexpr std::size_t kMaxBins = 1200;
 
 // Reads the replay's CSV (csv_sink.hpp) and, when not empty, the smoothed CSV (smoothing.hpp),
 // and writes the report. `units`: the engineering unit of each point and model output, by name.

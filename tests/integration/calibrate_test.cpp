@@ -60,8 +60,10 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
   INFO(simulated.err);
   REQUIRE(simulated.rc == 0);
 
+  const std::string report = dir / "calibration.html";
   const Run fitted = run(dir, HVAC_TWIN_CALIBRATE_EXE,
-                         {"--config", kConfig, "--charge", "0.5", "--fit", fit, "--out", cal, csv});
+                         {"--config", kConfig, "--charge", "0.5", "--fit", fit, "--out", cal,
+                          "--report", report, csv});
   INFO(fitted.err);
   REQUIRE(fitted.rc == 0);
   CHECK_THAT(fitted.err, Catch::Contains("on 6 windows"));
@@ -75,6 +77,16 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
     CHECK(sigma < prior_sigma / 2.0);
     CHECK(file["parameters"][name] == value);
   }
+  // The report: the parameter table and one residual chart per measured point.
+  std::ifstream html_in(report);
+  const std::string html{std::istreambuf_iterator<char>(html_in), {}};
+  for (const auto& [name, truth] : kTruth)
+    CHECK_THAT(html, Catch::Contains("<th>" + name + "</th>"));
+  std::size_t charts = 0;
+  for (auto at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1))
+    ++charts;
+  CHECK(charts >= 6);
+  CHECK_THAT(html, Catch::Contains("discharge_pressure") && Catch::Contains("measured − model"));
   // The unit's filter carries fouling as a state (its sigma goes along); the valve factor is a
   // constant of its model (its value only).
   CHECK(file["initial_std"].contains("fouling"));

@@ -35,7 +35,7 @@ TEST_CASE("a held operating point is one window after its settling time, with th
   CHECK(w[0].y[1] == 7.0);
 }
 
-TEST_CASE("an input change, a missing input or a gap ends a segment; a short rest is no window",
+TEST_CASE("an input change, a missing input or a gap ends a segment, and a short rest is no window",
           "[calibration]") {
   auto f = finder();
   double t = 0.0;
