@@ -8,11 +8,8 @@
 #include <sstream>
 
 namespace hvac_twin::replay {
-namespace {
 
-using recording::RecordingError;
-
-std::vector<std::string> split(const std::string& line) {
+std::vector<std::string> split_csv_line(const std::string& line) {
   std::vector<std::string> out;
   std::string field;
   std::stringstream s(line);
@@ -27,6 +24,10 @@ std::vector<std::string> split(const std::string& line) {
   if (!line.empty() && line.back() == ',') out.emplace_back();
   return out;
 }
+
+namespace {
+
+using recording::RecordingError;
 
 std::optional<double> number(const std::string& field) {
   if (field.empty()) return std::nullopt;
@@ -105,7 +106,7 @@ CsvPoints::CsvPoints(std::string path, const config::UnitConfig& unit, double in
   }
   std::string line;
   if (next_line(line)) {
-    const auto columns = split(line);
+    const auto columns = split_csv_line(line);
     if (columns.empty() || columns[0] != "time")
       fail("the header row's first column must be \"time\"");
     std::vector<bool> seen(unit.points.size(), false);
@@ -145,7 +146,7 @@ bool CsvPoints::next_line(std::string& line) {
 bool CsvPoints::read_row() {
   std::string line;
   if (next_line(line)) {
-    const auto fields = split(line);
+    const auto fields = split_csv_line(line);
     if (fields.size() != column_point_.size() + 1)
       fail(std::to_string(fields.size()) + " fields, the header has " +
            std::to_string(column_point_.size() + 1));

@@ -29,6 +29,10 @@
 
 namespace hvac_twin::replay {
 
+// The comma-separated fields of a line, each without surrounding white space; a trailing comma
+// is a last, empty field. (No quoting: point names and numbers have no commas.)
+std::vector<std::string> split_csv_line(const std::string& line);
+
 // Parses a `time` field; nullopt if it is neither form. [ns since the Unix epoch, UTC]
 std::optional<std::int64_t> parse_time(const std::string& field);
 

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "daemon/replay/csv_points.hpp"
 #include "daemon/replay/svg_chart.hpp"
 
 namespace hvac_twin::replay {
@@ -41,27 +42,17 @@ struct Table {
   }
 };
 
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::string f;
-  std::stringstream s(line);
-  while (std::getline(s, f, ','))
-    out.push_back(f);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
-
 Table read_table(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot be read for the report");
   Table t;
   std::string line;
   if (!std::getline(in, line)) throw std::runtime_error(path + ": empty");
-  t.columns = split(line);
+  t.columns = split_csv_line(line);
   for (std::size_t i = 0; i < t.columns.size(); ++i)
     t.index.emplace(t.columns[i], i);
   while (std::getline(in, line))
-    t.rows.push_back(split(line));
+    t.rows.push_back(split_csv_line(line));
   return t;
 }
 

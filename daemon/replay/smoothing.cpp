@@ -36,7 +36,9 @@ Smoothing::~Smoothing() {
 }
 
 void Smoothing::attach(const runtime::UnitPipeline* pipeline) {
-  if (dynamic_cast<const est::Ekf*>(&pipeline->filter()) == nullptr)
+  // The pipeline makes its filter once, in its constructor: the cast holds for its life.
+  ekf_ = dynamic_cast<const est::Ekf*>(&pipeline->filter());
+  if (ekf_ == nullptr)
     throw std::invalid_argument("--smooth needs an EKF (estimator.type ekf or constrained_ekf)");
   pipeline_ = pipeline;
   const auto& c = pipeline->filter().counters();
@@ -47,7 +49,7 @@ void Smoothing::attach(const runtime::UnitPipeline* pipeline) {
 
 void Smoothing::after_predict(std::string_view /*unit*/, std::uint64_t /*cycle*/,
                               const std::atomic<bool>& /*stopping*/) {
-  const auto& ekf = dynamic_cast<const est::Ekf&>(pipeline_->filter());
+  const est::Ekf& ekf = *ekf_;
   const auto& c = ekf.counters();
   predicted_ = c.predicts == predicts_ + 1 && c.predict_failures == failures_;
   if (!predicted_) return;

@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "daemon/estimation/ekf.hpp"
 #include "daemon/runtime/cycle_hooks.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
 
@@ -53,6 +54,7 @@ class Smoothing final : public runtime::CycleHooks {
   std::size_t record_doubles_;
   std::FILE* file_ = nullptr;
   const runtime::UnitPipeline* pipeline_ = nullptr;
+  const est::Ekf* ekf_ = nullptr;              // pipeline_'s filter
   std::uint64_t predicts_ = 0, failures_ = 0;  // the filter's counters at the last cycle's end
   bool predicted_ = false;                     // this cycle predicted successfully
   bool last_valid_ = false;                    // the last cycle had estimates
