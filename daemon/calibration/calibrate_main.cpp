@@ -108,6 +108,11 @@ int run(const Options& o) {
     return hvac_twin::config::kExitConfigError;
   }
   const auto log = hvac_twin::runtime::make_logger(o.log_level);
+  if (!unit->calibration.empty())
+    log->warn(
+        "unit {} includes the calibration {}: it is the fit's prior (its values and sigma); "
+        "for a fit from the nominal values, calibrate with a configuration without it",
+        unit_id, unit->calibration);
 
   // The model with every fitted parameter carried as a state.
   const auto* schema = hvac_twin::plant::find_schema(unit->model.type);
