@@ -39,10 +39,14 @@ bool read_text(const nlohmann::json& j, const char* key, std::string& out, std::
 }  // namespace
 
 std::string write_calibration(const CalibrationFile& file) {
-  nlohmann::ordered_json j = {
-      {"format", kFormat},   {"version", kVersion},           {"unit", file.unit},
-      {"model", file.model}, {"parameters", file.parameters}, {"initial_std", file.initial_std},
-      {"fit", file.fit}};
+  nlohmann::ordered_json j = {{"format", kFormat},
+                              {"version", kVersion},
+                              {"unit", file.unit},
+                              {"model", file.model},
+                              {"parameters", file.parameters},
+                              {"initial_std", file.initial_std},
+                              {"point_offsets", file.point_offsets},
+                              {"fit", file.fit}};
   return j.dump(2) + "\n";
 }
 
@@ -66,17 +70,18 @@ std::optional<CalibrationFile> read_calibration(const std::string& text, std::st
   for (const auto& [key, value] : j.items()) {
     (void)value;
     if (key != "format" && key != "version" && key != "unit" && key != "model" &&
-        key != "parameters" && key != "initial_std" && key != "fit") {
+        key != "parameters" && key != "initial_std" && key != "point_offsets" && key != "fit") {
       error = "/" + key +
               ": unknown key (expected format, version, unit, model, parameters, "
-              "initial_std, fit)";
+              "initial_std, point_offsets, fit)";
       return std::nullopt;
     }
   }
   CalibrationFile f;
   if (!read_text(j, "unit", f.unit, error) || !read_text(j, "model", f.model, error) ||
       !read_numbers(j, "parameters", f.parameters, error) ||
-      !read_numbers(j, "initial_std", f.initial_std, error))
+      !read_numbers(j, "initial_std", f.initial_std, error) ||
+      !read_numbers(j, "point_offsets", f.point_offsets, error))
     return std::nullopt;
   return f;
 }

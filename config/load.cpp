@@ -197,6 +197,21 @@ LoadResult with_calibrations(const std::string& path, const std::string& text, c
     };
     insert(cal->parameters, "model", "parameters", "parameters");
     insert(cal->initial_std, "estimator", "initial_std", "initial_std");
+    // A point's offset is a correction of the reading: added to the configured one.
+    for (const auto& [name, correction] : cal->point_offsets) {
+      const std::string where = file.string() + ": /point_offsets/" + pointer_token(name);
+      auto& points = ju["points"];
+      std::size_t j = 0;
+      while (j < points.size() && points[j].value("name", std::string()) != name)
+        ++j;
+      if (j == points.size()) {
+        out.errors.push_back({at, where + ": unit " + unit.id + " has no point \"" + name + "\""});
+        continue;
+      }
+      points[j]["offset"] = points[j].value("offset", 0.0) + correction;
+      inserted.push_back(
+          {"/units/" + std::to_string(i) + "/points/" + std::to_string(j) + "/offset", at, where});
+    }
   }
   if (!out.errors.empty()) return out;
   out = load_config_text(doc.dump(), models);

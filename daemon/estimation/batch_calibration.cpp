@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "daemon/estimation/steady_state.hpp"
 #include "plant_models/core/settling.hpp"
@@ -23,11 +24,15 @@ class Fit {
  public:
   Fit(const plant::ContinuousModel& model, CalibrationProblem& problem,
       std::vector<WindowFit>& windows)
-      : problem_(problem), windows_(windows), steady_(model, states_of(problem), problem.known) {}
+      : problem_(problem),
+        windows_(windows),
+        steady_(model, states_of(problem), problem.known),
+        offset_(offsets_of(problem)) {}
 
   // False if a used window has no steady state at p.
   bool evaluate(const Eigen::VectorXd& p, Evaluation& e, bool keep, bool nominal) {
     const auto np = static_cast<Index>(p.size());
+    const std::size_t factors = problem_.parameters.size();
     std::vector<double> rows;
     std::vector<Eigen::RowVectorXd> jrows;
     for (std::size_t w = 0; w < problem_.windows.size(); ++w) {
@@ -43,13 +48,18 @@ class Fit {
       Eigen::VectorXd fitted(static_cast<Index>(problem_.measured.size()));
       for (std::size_t k = 0; k < problem_.measured.size(); ++k) {
         const auto o = static_cast<Index>(problem_.measured[k]);
-        fitted[static_cast<Index>(k)] = y[o];
+        const Index b = offset_[k];
+        const double offset = b >= 0 ? p[b] : 0.0;
+        fitted[static_cast<Index>(k)] = y[o] + offset;
         const double meas = win.y[problem_.measured[k]];
         // Not measured here, or an output of held states only (the zone air): no information.
         if (!std::isfinite(meas) || dy.row(o).isZero(0.0)) continue;
         const double s = problem_.measured_std[k];
-        rows.push_back((meas - y[o]) / s);
-        jrows.emplace_back(-dy.row(o) / s);
+        rows.push_back((meas - y[o] - offset) / s);
+        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(np);
+        row.head(static_cast<Index>(factors)) = -dy.row(o) / s;
+        if (b >= 0) row[b] = -1.0 / s;
+        jrows.push_back(row);
       }
       if (keep) (nominal ? windows_[w].nominal : windows_[w].fitted) = fitted;
     }
@@ -80,6 +90,14 @@ class Fit {
   }
 
  private:
+  // Per measured output, its offset's index in p (after the parameters), or -1.
+  static std::vector<Index> offsets_of(const CalibrationProblem& problem) {
+    std::vector<Index> out(problem.measured.size(), -1);
+    auto next = static_cast<Index>(problem.parameters.size());
+    for (std::size_t k = 0; k < problem.offset_std.size() && k < out.size(); ++k)
+      if (problem.offset_std[k] > 0.0) out[k] = next++;
+    return out;
+  }
   static std::vector<std::size_t> states_of(const CalibrationProblem& problem) {
     std::vector<std::size_t> s;
     for (const auto& p : problem.parameters)
@@ -90,6 +108,7 @@ class Fit {
   CalibrationProblem& problem_;
   std::vector<WindowFit>& windows_;
   SteadyState steady_;
+  std::vector<Index> offset_;
 };
 
 }  // namespace
@@ -97,20 +116,32 @@ class Fit {
 CalibrationResult calibrate(const plant::ContinuousModel& model, CalibrationProblem problem,
                             const CalibrationOptions& options) {
   CalibrationResult out;
-  const auto np = static_cast<Index>(problem.parameters.size());
+  const auto nf = static_cast<Index>(problem.parameters.size());
   out.windows.resize(problem.windows.size());
-  if (np == 0 || problem.measured.size() != problem.measured_std.size()) {
-    out.error = "no parameters to fit, or a sigma missing for a measured output";
+  if (nf == 0 || problem.measured.size() != problem.measured_std.size() ||
+      problem.offset_std.size() > problem.measured.size()) {
+    out.error = "no parameters to fit, or a sigma missing or extra for a measured output";
     return out;
   }
+  const auto offsets = static_cast<Index>(std::count_if(
+      problem.offset_std.begin(), problem.offset_std.end(), [](double s) { return s > 0.0; }));
+  const Index np = nf + offsets;
   Eigen::VectorXd p0(np), s0(np), lo(np), hi(np);
-  for (Index k = 0; k < np; ++k) {
+  for (Index k = 0; k < nf; ++k) {
     const auto& c = problem.parameters[static_cast<std::size_t>(k)];
     p0[k] = c.prior;
     s0[k] = c.prior_std;
     lo[k] = c.min;
     hi[k] = c.max;
   }
+  for (std::size_t j = 0, k = static_cast<std::size_t>(nf); j < problem.offset_std.size(); ++j)
+    if (problem.offset_std[j] > 0.0) {
+      const auto i = static_cast<Index>(k++);
+      p0[i] = 0.0;
+      s0[i] = problem.offset_std[j];
+      lo[i] = -std::numeric_limits<double>::infinity();
+      hi[i] = std::numeric_limits<double>::infinity();
+    }
   // Each window's first guess settled at its inputs, the parameters at their prior.
   for (std::size_t w = 0; w < problem.windows.size(); ++w) {
     auto& win = problem.windows[w];

@@ -1,8 +1,10 @@
 // Batch calibration of a model's uncertain parameters to steady operating windows of a
 // commissioning period with the charge known (issue 15, item 4): a maximum a posteriori fit,
 //
-//   minimise  sum_w sum_j ((y_wj - h_j(x_w(p), u_w)) / sigma_j)^2 + sum_i ((p_i - p0_i) / s_i)^2
-//   over p in [min, max],  with f_free(x_w(p), u_w) = 0 in every window w,
+//   minimise  sum_w sum_j ((y_wj - h_j(x_w(p), u_w) - b_j) / sigma_j)^2
+//             + sum_i ((p_i - p0_i) / s_i)^2 + sum_j (b_j / t_j)^2
+//   over p in [min, max] and the sensor offsets b_j fitted (prior sigma t_j),
+//   with f_free(x_w(p), u_w) = 0 in every window w,
 //
 // by Levenberg–Marquardt. The residuals' derivatives are exact: the model's AD Jacobians and the
 // implicit-function theorem at each window's steady state (steady_state.hpp), one model source.
@@ -52,6 +54,9 @@ struct CalibrationProblem {
   std::vector<std::size_t> known;     // states held at their value in each window's x
   std::vector<std::size_t> measured;  // output indices with a sensor
   std::vector<double> measured_std;   // their sensors' sigma, one per measured output
+  // Per measured output: the prior sigma of its sensor's offset (reading = output + offset),
+  // fitted after the parameters in the result's vectors; 0 or empty: no offset fitted.
+  std::vector<double> offset_std;
   std::vector<CalibrationWindow> windows;
 };
 
@@ -62,14 +67,15 @@ struct CalibrationOptions {
 
 struct WindowFit {
   bool used = false;
-  std::string error;                // why a window was left out
-  Eigen::VectorXd nominal, fitted;  // the measured outputs' model values at p0 and at the fit
+  std::string error;  // why a window was left out
+  // The measured outputs' model values, offsets included, at the prior and at the fit.
+  Eigen::VectorXd nominal, fitted;
 };
 
 struct CalibrationResult {
   bool ok = false;
   std::string error;
-  Eigen::VectorXd value, std;       // the parameters and their sigma
+  Eigen::VectorXd value, std;       // the parameters, then the fitted offsets; their sigma
   Eigen::MatrixXd covariance;       // after the Birge scaling
   double chi_square = 0.0;          // of the data residuals at the fit
   double chi_square_nominal = 0.0;  // at the prior

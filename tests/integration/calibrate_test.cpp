@@ -55,15 +55,16 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
     sim.insert(sim.end(), {"--set", name + "=" + std::to_string(value)});
     fit += (fit.empty() ? "" : ",") + name;
   }
-  sim.insert(sim.end(), {"--write-points", csv, "4.5"});
+  // The outdoor coil's outlet thermistor reads 0.5 K low.
+  sim.insert(sim.end(), {"--bias", "outdoor_coil_out_temp=-0.5", "--write-points", csv, "4.5"});
   const Run simulated = run(dir, HVAC_TWIN_SIM_EXE, sim);
   INFO(simulated.err);
   REQUIRE(simulated.rc == 0);
 
   const std::string report = dir / "calibration.html";
   const Run fitted = run(dir, HVAC_TWIN_CALIBRATE_EXE,
-                         {"--config", kConfig, "--charge", "0.5", "--fit", fit, "--out", cal,
-                          "--report", report, csv});
+                         {"--config", kConfig, "--charge", "0.5", "--fit", fit, "--offsets",
+                          "outdoor_coil_out_temp=1", "--out", cal, "--report", report, csv});
   INFO(fitted.err);
   REQUIRE(fitted.rc == 0);
   CHECK_THAT(fitted.err, Catch::Contains("on 6 windows"));
@@ -87,6 +88,12 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
     ++charts;
   CHECK(charts >= 6);
   CHECK_THAT(html, Catch::Contains("discharge_pressure") && Catch::Contains("measured − model"));
+  // The thermistor's offset, found and corrected by the point's configured offset.
+  const auto& offset = file["fit"]["parameters"]["offset of outdoor_coil_out_temp [degC]"];
+  INFO("offset " << offset.dump());
+  CHECK(std::abs(offset["value"].get<double>() + 0.5) < 3.0 * offset["sigma"].get<double>());
+  CHECK(offset["sigma"].get<double>() < 0.5);
+  CHECK(file["point_offsets"]["outdoor_coil_out_temp"] == -offset["value"].get<double>());
   // The unit's filter carries fouling as a state (its sigma goes along); the valve factor is a
   // constant of its model (its value only).
   CHECK(file["initial_std"].contains("fouling"));

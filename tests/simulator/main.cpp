@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -57,6 +58,8 @@ void usage(std::FILE* to) {
       "  --charge KG         heat pump: the truth's refrigerant charge (default: nameplate)\n"
       "  --point NAME=V@H1-H2  the point NAME reads V (in its own unit) from hour H1 to H2 of\n"
       "                      the scenario: a transmitter gone wrong (repeatable)\n"
+      "  --bias NAME=D       the point NAME reads D (in its own unit) above the truth\n"
+      "                      throughout: a miscalibrated transmitter (repeatable)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
       "  --commissioning     heat pump: hold six operating points for 45 min each instead of\n"
       "                      the day's thermostat and superheat loops\n"
@@ -83,11 +86,22 @@ void sleep_until(std::int64_t deadline_ns) {
   }
 }
 
-// --point: a point that reads a fixed value for a while, whatever the plant does.
+// --point: a point that reads a fixed value for a while, whatever the plant does; --bias: one
+// that reads off by a fixed amount throughout (a miscalibrated transmitter).
 struct PointOverride {
   std::string name;
   double value = 0.0, from_s = 0.0, to_s = 0.0;
+  bool add = false;
 };
+
+void apply_overrides(const std::vector<PointOverride>& overrides,
+                     const hvac_twin::config::UnitConfig& unit, double t,
+                     std::vector<double>& values) {
+  for (const PointOverride& o : overrides)
+    for (std::size_t i = 0; i < values.size(); ++i)
+      if (unit.points[i].name == o.name && t >= o.from_s && t < o.to_s)
+        values[i] = o.add ? values[i] + o.value : o.value;
+}
 
 struct Args {
   std::string config, unit, truth_csv, points_csv;
@@ -154,6 +168,12 @@ bool parse(int argc, char** argv, Args& a) {
       a.overrides.push_back({spec.substr(0, eq), std::stod(spec.substr(eq + 1, at - eq - 1)),
                              3600.0 * std::stod(spec.substr(at + 1, dash - at - 1)),
                              3600.0 * std::stod(spec.substr(dash + 1))});
+    } else if (arg == "--bias") {
+      const std::string spec = take();
+      const auto eq = spec.find('=');
+      if (eq == std::string::npos) return false;
+      a.overrides.push_back({spec.substr(0, eq), std::stod(spec.substr(eq + 1)), 0.0,
+                             std::numeric_limits<double>::infinity(), true});
     } else if (arg == "--set") {
       const std::string kv = take();
       const auto eq = kv.find('=');
@@ -189,6 +209,7 @@ int write_points(hvac_twin::sim::Simulation& sim, const hvac_twin::config::UnitC
     if (truth.is_open())
       sim.write_csv_row(truth, (kStart + static_cast<long long>(sim.time_s())) * 1'000'000'000);
     sim.point_values(values);
+    apply_overrides(args.overrides, unit, sim.time_s(), values);
     std::fprintf(out, "%.3f", static_cast<double>(kStart) + sim.time_s());
     for (const double v : values)
       std::fprintf(out, ",%.6g", v);
@@ -234,7 +255,7 @@ int main(int argc, char** argv) {
   for (const PointOverride& o : args.overrides) {
     if (std::none_of(unit->points.begin(), unit->points.end(),
                      [&](const auto& p) { return p.name == o.name; })) {
-      std::fprintf(stderr, "hvac-twin-sim: --point %s: unit \"%s\" has no such point\n",
+      std::fprintf(stderr, "hvac-twin-sim: --point/--bias %s: unit \"%s\" has no such point\n",
                    o.name.c_str(), unit->id.c_str());
       return 2;
     }
@@ -257,10 +278,7 @@ int main(int argc, char** argv) {
     std::vector<double> values(unit->points.size());
     auto publish = [&] {
       sim.point_values(values);
-      for (const PointOverride& o : args.overrides)
-        for (std::size_t i = 0; i < values.size(); ++i)
-          if (unit->points[i].name == o.name && sim.time_s() >= o.from_s && sim.time_s() < o.to_s)
-            values[i] = o.value;
+      apply_overrides(args.overrides, *unit, sim.time_s(), values);
       for (std::size_t i = 0; i < values.size(); ++i)
         server.set_value(unit->points[i], values[i]);
     };

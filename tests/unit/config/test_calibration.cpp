@@ -22,6 +22,7 @@ CalibrationFile calibration() {
   f.model = "heat_pump_r32";
   f.parameters = {{"fouling", 0.8}, {"valve_factor", 0.9}};
   f.initial_std = {{"fouling", 0.03}};
+  f.point_offsets = {{"outdoor_coil_in_temp", 0.3}};
   return f;
 }
 
@@ -47,10 +48,25 @@ TEST_CASE("a unit's calibration file sets its model parameters and filter sigmas
   CHECK(unit.model.parameters.at("fouling") == 0.8);
   CHECK(unit.model.parameters.at("valve_factor") == 0.9);
   CHECK(unit.estimator.initial_std.at("fouling") == 0.03);
+  // A point offset corrects the reading: added to the configured offset.
+  const auto offset_of = [](const UnitConfig& u, const std::string& name) {
+    for (const auto& p : u.points)
+      if (p.name == name) return p.offset;
+    return -1e9;
+  };
+  CHECK(offset_of(unit, "outdoor_coil_in_temp") == 0.3);
+  CHECK(offset_of(unit, "outdoor_coil_out_temp") == 0.0);
   // The configuration's own values are kept.
   CHECK(unit.model.parameters.at("augment_fouling") == 1.0);
   CHECK(unit.estimator.measurement_noise.at("suction_pressure") == 5000.0);
 
+  SECTION("a point offset adds to the configured one") {
+    for (auto& p : site.doc["units"][0]["points"])
+      if (p["name"] == "outdoor_coil_in_temp") p["offset"] = -1.0;
+    const LoadResult again = site.load();
+    test::require_ok(again);
+    CHECK(offset_of(again.config->units[0], "outdoor_coil_in_temp") == Approx(-0.7));
+  }
   SECTION("an absolute path") {
     site.doc["units"][0]["calibration"] = site.dir / "hp1.calibration.json";
     test::require_ok(site.load());
@@ -79,6 +95,11 @@ TEST_CASE("a bad calibration file is an error naming the file, the key in it and
   SECTION("a parameter the model does not have") {
     f.parameters["foulling"] = 0.9;
     test::require_single_error(site.load(f), at, {"/parameters/foulling", "did you mean"});
+  }
+  SECTION("an offset of a point the unit does not have") {
+    f.point_offsets["outdoor_coil_temp"] = 0.1;
+    test::require_single_error(site.load(f), at,
+                               {"/point_offsets/outdoor_coil_temp", "has no point"});
   }
   SECTION("a value the configuration sets too") {
     site.doc["units"][0]["model"]["parameters"]["fouling"] = 1.0;

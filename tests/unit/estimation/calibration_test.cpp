@@ -108,7 +108,8 @@ struct Commissioning {
       clean.push_back(rig.outputs(steady(rig, u, truth), u));
   }
 
-  CalibrationProblem problem(unsigned seed) const {
+  // bias: each sensor's offset in the data (empty: none).
+  CalibrationProblem problem(unsigned seed, const std::vector<double>& bias = {}) const {
     const auto& layout = rig.model->layout();
     CalibrationProblem problem;
     for (const std::size_t i : states(*rig.model))
@@ -123,7 +124,7 @@ struct Commissioning {
     for (std::size_t w = 0; w < points.size(); ++w) {
       auto y = clean[w];
       for (std::size_t k = 0; k < measured.size(); ++k)
-        y[measured[k]] += noise[k] * normal(rng);
+        y[measured[k]] += noise[k] * normal(rng) + (bias.empty() ? 0.0 : bias[k]);
       problem.windows.push_back({points[w], y, rig.start(points[w][4], 27.0, 0.5)});
     }
     return problem;
@@ -167,4 +168,38 @@ TEST_CASE("calibration's sigma is honest: the parameters' NEES over noise draws 
   INFO("NEES over " << kDraws << " draws: " << nees << " (expected 60)");
   CHECK(nees > 40.5);
   CHECK(nees < 83.3);
+}
+
+TEST_CASE("calibration fits sensor offsets beside the factors, its sigma honest", "[calibration]") {
+  const Commissioning c;
+  // The suction transmitter reads 30 kPa high, the outdoor coil's outlet thermistor 0.5 K low.
+  const std::vector<double> bias{30e3, 0.0, 0.0, -0.5, 0.0, 0.0};
+  Eigen::VectorXd truth(7);
+  truth << c.truth[0], c.truth[1], c.truth[2], c.truth[3], c.truth[4], 30e3, -0.5;
+  constexpr unsigned kDraws = 10;
+  double nees = 0.0;
+  for (unsigned seed = 1; seed <= kDraws; ++seed) {
+    auto problem = c.problem(seed, bias);
+    problem.offset_std = {50e3, 0.0, 0.0, 1.0, 0.0, 0.0};
+    const auto result = hvac_twin::est::calibrate(*c.rig.model, problem);
+    INFO(result.error);
+    REQUIRE(result.ok);
+    REQUIRE(result.value.size() == 7);
+    const Eigen::VectorXd error = result.value - truth;
+    nees += error.dot(result.covariance.ldlt().solve(error));
+    if (seed != 1) continue;
+    // Without offsets the factors must explain the biased readings: a worse fit.
+    problem.offset_std.clear();
+    const auto plain = hvac_twin::est::calibrate(*c.rig.model, problem);
+    REQUIRE(plain.ok);
+    CHECK(result.chi_square < plain.chi_square / 2.0);
+    CHECK(result.std[6] < 0.5);  // the windows tell the offset, not only its prior of 1 K
+    // A window's fitted reading includes the offset.
+    CHECK(std::abs(result.windows.front().fitted[3] -
+                   problem.windows.front().y[hp::kCondWallTempOut]) < 1.0);
+  }
+  // chi-square with 10 x 7 = 70 degrees of freedom, 95 % two-sided: [48.8, 95.0].
+  INFO("NEES over " << kDraws << " draws: " << nees << " (expected 70)");
+  CHECK(nees > 48.8);
+  CHECK(nees < 95.0);
 }
