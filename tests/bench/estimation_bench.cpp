@@ -4,12 +4,13 @@
 //                    [--filters ekf,cekf,enkf] [--members N] [--threads T]
 //                    [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1]
 //                    [--noise-factor F] [--repr OUTPUT=SIGMA]
-//                    [--commission H] [--csv FILE] [--svg FILE]
+//                    [--commission H] [--calibrate] [--csv FILE] [--svg FILE]
 // --set, --q, --consider change the filters' model parameters, random walks and consider flags
 // from the design the daemon runs; --noise-factor sets the factor on the sensor noise the filters
 // are told (default 1) and --repr a point's representativeness error in quadrature (default
 // 0.25 K on the four wall sensors; heat_pump_scenario.hpp says why); --commission H: the
-// filters know the charge for the first H hours (default 0: never).
+// filters know the charge for the first H hours (default 0: never); --calibrate: the filters
+// start from a batch calibration on a commissioning of each truth (calibrated_start.hpp).
 //
 // Truths (heat_pump_scenario.hpp): the converged heat pump with closures the filters' model does
 // not share, nominal; the same with parameters off as units of one model differ (UA -20/+20 %,
@@ -42,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/bench/calibrated_start.hpp"
 #include "tests/bench/estimation_run.hpp"
 #include "tests/bench/svg_plot.hpp"
 
@@ -65,6 +67,7 @@ struct Args {
                                        bench::TruthKind::kSensorBias};
   std::vector<std::string> filters{"EKF", "constrained EKF", "constrained EnKF"};
   std::string csv_path = "estimation_bench.csv", svg_path = "estimation_bench.svg";
+  bool calibrate = false;
 };
 
 bool parse(int argc, char** argv, Args& a) {
@@ -120,6 +123,8 @@ bool parse(int argc, char** argv, Args& a) {
         ++o;
       if (o == layout.outputs.size()) return false;
       bench::representativeness()[o] = std::atof(kv.substr(eq + 1).c_str());
+    } else if (s == "--calibrate") {
+      a.calibrate = true;
     } else if (s == "--commission") {
       bench::commissioning_s = 3600.0 * std::atof(next().c_str());
     } else if (s == "--adaptive-noise") {  // MIN:MAX, the daemon's adaptive_noise_min/max
@@ -289,6 +294,7 @@ int main(int argc, char** argv) {
         "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
         "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
         "[--noise-factor F] [--adaptive-noise MIN:MAX] [--repr OUTPUT=SIGMA] [--commission H] "
+        "[--calibrate] "
         "[--csv FILE] [--svg FILE]\n");
     return 2;
   }
@@ -302,6 +308,7 @@ int main(int argc, char** argv) {
       bench::filter_noise_factor, bench::adaptive_noise_min, bench::adaptive_noise_max);
   bool finite = true;
   for (const bench::TruthKind kind : a.truths) {
+    if (a.calibrate) bench::calibrate_filters(kind);
     bench::HeatPumpTruth truth({}, 7, kind);
     std::vector<FilterRun> runs;
     for (const auto& name : a.filters)

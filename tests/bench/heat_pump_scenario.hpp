@@ -265,6 +265,11 @@ inline std::map<std::string, double>& process_noise_overrides() {
   static std::map<std::string, double> q;
   return q;
 }
+// Initial sigma per state instead of the layout's (start_filter; estimation_bench --calibrate).
+inline std::map<std::string, double>& initial_std_overrides() {
+  static std::map<std::string, double> s;
+  return s;
+}
 inline std::map<std::string, bool>& consider_overrides() {
   static std::map<std::string, bool> c;
   return c;
@@ -289,8 +294,12 @@ inline void start_filter(const plant::ContinuousModel& model, est::Estimator& fi
   std::vector<double> x0(model.num_states()), s0;
   model.initial_guess(u, y_measured, x0);
   plant::settle(model, u, 600.0, x0);
-  for (const auto& s : model.layout().states)
-    s0.push_back(s.augmented ? s.initial_std : 0.2 * s.initial_std);
+  for (const auto& s : model.layout().states) {
+    const auto it = initial_std_overrides().find(s.name);
+    s0.push_back(it != initial_std_overrides().end() ? it->second
+                 : s.augmented                       ? s.initial_std
+                                                     : 0.2 * s.initial_std);
+  }
   filter.reset(x0, s0);
 }
 
