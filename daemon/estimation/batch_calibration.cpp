@@ -83,7 +83,9 @@ class Fit {
       Eigen::VectorXd y;
       Eigen::MatrixXd dy;
       windows_[w].used = steady_.solve(win.u, win.x) && steady_.sensitivities(win.u, win.x, y, dy);
-      if (!windows_[w].used) windows_[w].error = steady_.error();
+      // A window whose settling failed but whose steady state Newton found is used.
+      auto& error = windows_[w].error;
+      error = windows_[w].used ? "" : (error.empty() ? "" : error + "; ") + steady_.error();
       used += windows_[w].used ? 1 : 0;
     }
     return used;
