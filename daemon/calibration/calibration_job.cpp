@@ -1,5 +1,6 @@
 #include "daemon/calibration/calibration_job.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -30,6 +31,10 @@ CalibrationJob::CalibrationJob(const config::UnitConfig& unit, JobOptions option
           plant::ModelLayout::find(schema->parameters, "augment_" + s.name))
         fit_.push_back(s.name);
   if (fit_.empty()) throw UsageError("nothing to fit: name parameters with --fit");
+  for (std::size_t k = 0; k < fit_.size(); ++k)
+    if (std::find(fit_.begin(), fit_.begin() + static_cast<std::ptrdiff_t>(k), fit_[k]) !=
+        fit_.begin() + static_cast<std::ptrdiff_t>(k))
+      throw UsageError("--fit: " + fit_[k] + " is named twice");
   for (const auto& name : fit_) {
     const std::string augment = "augment_" + name;
     if (!plant::ModelLayout::find(schema->parameters, name) ||
@@ -48,7 +53,11 @@ CalibrationJob::CalibrationJob(const config::UnitConfig& unit, JobOptions option
     throw UsageError("--charge: expected kg in [" + replay::fmt(cs.min) + ", " +
                      replay::fmt(cs.max) + "]");
   for (const auto& name : fit_) {
-    const std::size_t i = *layout.state(name);
+    const auto state = layout.state(name);
+    if (!state)
+      throw UsageError("--fit: model " + unit.model.type + " carries " + name +
+                       " as no state of that name");
+    const std::size_t i = *state;
     const auto& s = layout.states[i];
     const auto it = unit.estimator.initial_std.find(name);
     problem_.parameters.push_back(

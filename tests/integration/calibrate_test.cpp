@@ -136,6 +136,9 @@ TEST_CASE("hvac-twin-calibrate refuses bad input, naming what was wrong",
     const Run r = calibrate({"--charge", "0.5", "--fit", "fouling,cells", csv});
     CHECK(r.rc == 2);
     CHECK_THAT(r.err, Catch::Contains("cells is not a parameter"));
+    const Run twice = calibrate({"--charge", "0.5", "--fit", "fouling,fouling", csv});
+    CHECK(twice.rc == 2);
+    CHECK_THAT(twice.err, Catch::Contains("fouling is named twice"));
   }
   SECTION("a bad CSV line") {
     std::ofstream(dir / "bad.csv") << "time,compressor_speed\n1782892800,50\n1782892802,fast\n";
