@@ -60,7 +60,8 @@ struct IntegratorCallbacks {
                       N_Vector, N_Vector, N_Vector) {
     Integrator& it = self(user_data);
     const double* J = nullptr;
-    const int status = it.jacobians_->get(view(y), it.u_, &J);
+    const int status =
+        it.jacobians_->get_near(view(y), it.u_, it.options_.jacobian_reuse_sigma, &J);
     if (status != kModelOk) return status;
     std::memcpy(SUNDenseMatrix_Data(jac), J, it.n_ * it.n_ * sizeof(double));  // ld = n
     return 0;
@@ -72,7 +73,8 @@ struct IntegratorCallbacks {
     Integrator& it = self(user_data);
     const auto n = static_cast<Eigen::Index>(it.n_);
     const double* jac = nullptr;
-    const int status = it.jacobians_->get(view(y), it.u_, &jac);
+    const int status =
+        it.jacobians_->get_near(view(y), it.u_, it.options_.jacobian_reuse_sigma, &jac);
     if (status != kModelOk) return status;
     // One matrix product for all sensitivities: gather S, multiply, scatter.
     const Eigen::Map<const Eigen::MatrixXd> J(jac, n, n);
@@ -93,7 +95,7 @@ struct IntegratorCallbacks {
       *J = it.jacobians_->latest();
       if (*J != nullptr) return kModelOk;
     }
-    return it.jacobians_->get(y, it.u_, J);
+    return it.jacobians_->get_near(y, it.u_, it.options_.jacobian_reuse_sigma, J);
   }
 
   static void error_handler(int /*code*/, const char* module, const char* function, char* msg,

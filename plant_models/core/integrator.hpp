@@ -67,6 +67,14 @@ struct IntegratorOptions {
   // the period after a large update (exact: 0.01 %). Off (the default): the exact derivative of
   // CVODES's steps, one Jacobian per step.
   bool reuse_newton_jacobian = false;
+  // Reuse one model Jacobian, for the steps' sensitivity solves (kDirect), CVODES's Newton
+  // matrix and the sensitivity right-hand sides, while no state has moved by more than this many of
+  // its initial_std (the layout's) from the state it was evaluated at; 0 (the default): a Jacobian
+  // at every step's own state. F is then the derivative of BDF steps on the model linearised within
+  // that distance of each step's state. Unlike reuse_newton_jacobian the reuse ends when the state
+  // moves, not when CVODES's iteration stops converging (race_bench --jacobian-reuse measures the
+  // trade).
+  double jacobian_reuse_sigma = 0.0;
 };
 
 struct IntegrationStats {

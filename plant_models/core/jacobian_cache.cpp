@@ -1,16 +1,42 @@
 #include "plant_models/core/jacobian_cache.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace hvac_twin::plant {
 
 JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
-    : model_(model), n_(n), x_(new double[n]()), jac_(new double[n * n]()) {}
+    : model_(model),
+      n_(n),
+      x_(new double[n]()),
+      scale_(new double[n]()),
+      jac_(new double[n * n]()) {
+  const auto& states = model.layout().states;
+  for (std::size_t i = 0; i < n; ++i)
+    scale_[i] = i < states.size() ? std::abs(states[i].initial_std) : 0.0;
+}
 
 bool JacobianCache::holds(std::span<const double> x) const {
   // Bitwise: the same state, not merely an equal one (0.0 and -0.0 count as different, which
   // only costs an evaluation).
   return valid_ && x.size() == n_ && std::memcmp(x.data(), x_.get(), n_ * sizeof(double)) == 0;
+}
+
+bool JacobianCache::near(std::span<const double> x, double distance) const {
+  if (!valid_ || x.size() != n_) return false;
+  for (std::size_t i = 0; i < n_; ++i)
+    if (!(std::abs(x[i] - x_[i]) <= distance * scale_[i])) return false;  // NaN: not near
+  return true;
+}
+
+int JacobianCache::get_near(std::span<const double> x, std::span<const double> u, double distance,
+                            const double** J) {
+  if (distance > 0.0 && near(x, distance)) {
+    ++hits_;
+    *J = jac_.get();
+    return kModelOk;
+  }
+  return get(x, u, J);
 }
 
 int JacobianCache::get(std::span<const double> x, std::span<const double> u, const double** J) {

@@ -134,6 +134,9 @@ struct FilterRun {
         o.integrator.rel_tol = std::atof(tol);
         o.integrator.abs_tol_scale = o.integrator.rel_tol / 1e-6;
       }
+      // The Jacobian reuse distance (IntegratorOptions::jacobian_reuse_sigma), to compare.
+      if (const char* d = std::getenv("BENCH_JACOBIAN_REUSE"))
+        o.integrator.jacobian_reuse_sigma = std::atof(d);
       filter = std::make_unique<est::Ekf>(*model, q, kMeasured.size(), o);
     }
     for (const std::size_t i : checked_outputs())

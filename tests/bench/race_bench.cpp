@@ -92,11 +92,16 @@ double g_sens_tol = 0.0;
 // most S seconds.
 bool g_reuse_jacobians = false;
 double g_max_step = 0.0;
+// --jacobian-reuse D: IntegratorOptions::jacobian_reuse_sigma (one Jacobian while no state moved
+// more than D of its initial sigma).
+double g_jacobian_reuse = -1.0;
 
 template <class O>
 void set_sensitivity_tolerance(O& o) {
   if constexpr (requires { o.reuse_newton_jacobian; }) o.reuse_newton_jacobian = g_reuse_jacobians;
   if (g_max_step > 0.0) o.max_step_s = g_max_step;
+  if constexpr (requires { o.jacobian_reuse_sigma; })
+    if (g_jacobian_reuse >= 0.0) o.jacobian_reuse_sigma = g_jacobian_reuse;
   if (g_sens_tol <= 0.0) return;
   o.sensitivity_error_control = true;
   if constexpr (requires { o.sensitivity_rel_tol; }) o.sensitivity_rel_tol = g_sens_tol;
@@ -210,6 +215,7 @@ struct Race {
     o.abs_tol_scale = 1e-4;
     o.max_steps = 100000;  // not the filters' budget: a tight reference takes many steps
     o.sensitivity_error_control = true;
+    o.jacobian_reuse_sigma = 0.0;  // the reference is exact
     return o;
   }
 
@@ -347,13 +353,15 @@ int main(int argc, char** argv) {
       g_sens_tol = std::atof(next().c_str());
     } else if (a == "--reuse-jacobians") {
       g_reuse_jacobians = true;
+    } else if (a == "--jacobian-reuse") {
+      g_jacobian_reuse = std::atof(next().c_str());
     } else if (a == "--max-step") {
       g_max_step = std::atof(next().c_str());
     } else {
       std::fprintf(
           stderr,
           "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n"
-          "                  [--reuse-jacobians] [--max-step S]\n");
+          "                  [--reuse-jacobians] [--jacobian-reuse D] [--max-step S]\n");
       return 2;
     }
   }

@@ -64,6 +64,27 @@ struct Flaky {
   }
 };
 
+// x' = A x, A = [[-2, 1], [0, -0.5]]: its Jacobian is the same everywhere.
+struct Linear {
+  ModelLayout layout() const {
+    ModelLayout l;
+    for (std::string name : {"a", "b"})
+      l.states.push_back(
+          StateInfo{.name = name, .unit = "1", .initial_std = 1.0, .abs_tol = 1e-12});
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S> x, std::span<const double>, std::span<S> f) const {
+    f[0] = -2.0 * x[0] + x[1];
+    f[1] = -0.5 * x[1];
+    return kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S>, std::span<const double>, std::span<S>) const {
+    return kModelOk;
+  }
+};
+
 IntegratorOptions sensitivities(SensitivityMethod method, double rel_tol, bool error_control) {
   IntegratorOptions o;
   o.sensitivities = true;
@@ -78,6 +99,40 @@ double distance(const std::vector<double>& F, const std::vector<double>& R,
                 const std::vector<double>& scale) {
   return hvac_twin::test::transition_error(F, R, scale).relative;
 }
+
+// The heat pump (10 cells, fouling augmented) 1.5 s into a speed and valve step from a settled
+// state, the inputs back at their old values: the next 5 s are a transient. F_ref is its F over
+// those 5 s at a tight tolerance; scale the states' resolution scales.
+struct HeatPumpTransient {
+  std::unique_ptr<ContinuousModel> model =
+      create_model("heat_pump_r32", ParameterMap{{"cells", 10}, {"augment_fouling", 1}});
+  std::vector<double> x, u, scale, F_ref;
+  bool ok = false;
+
+  HeatPumpTransient() {
+    const ModelLayout& L = model->layout();
+    const std::size_t n = model->num_states();
+    u.assign(model->num_inputs(), 1.0);
+    u[*L.input("compressor_speed")] = 50.0;
+    u[*L.input("valve_opening")] = 0.355;
+    u[*L.input("outdoor_temperature")] = 35.0;
+    std::vector<double> y(model->num_outputs(), std::nan(""));
+    x.resize(n);
+    model->initial_guess(u, y, x);
+    Integrator settle(*model, IntegratorOptions{});
+    std::vector<double> u2 = u;
+    u2[*L.input("compressor_speed")] = 62.0;
+    u2[*L.input("valve_opening")] = 0.38;
+    for (const auto& s : L.states)
+      scale.push_back(s.abs_tol / 1e-6);
+    IntegratorOptions tight = sensitivities(SensitivityMethod::kCvodesNewton, 1e-10, true);
+    tight.abs_tol_scale = 1e-4;
+    F_ref.resize(n * n);
+    std::vector<double> xs;
+    ok = settle.step(x, u, 600.0, {}).ok() && settle.step(x, u2, 1.5, {}).ok() &&
+         Integrator(*model, tight).step(xs = x, u, 5.0, F_ref).ok();
+  }
+};
 
 }  // namespace
 
@@ -117,33 +172,12 @@ TEST_CASE("a recoverable model error inside the direct sensitivity solve shorten
 
 TEST_CASE("heat pump: F by the direct solve is exact to the integrator's tolerance",
           "[integrator][heat_pump]") {
-  const auto model =
-      create_model("heat_pump_r32", ParameterMap{{"cells", 10}, {"augment_fouling", 1}});
-  const ModelLayout& L = model->layout();
+  const HeatPumpTransient hp;
+  REQUIRE(hp.ok);
+  const ContinuousModel* model = hp.model.get();
+  const std::vector<double>&x = hp.x, &u = hp.u, &scale = hp.scale, &F_ref = hp.F_ref;
   const std::size_t n = model->num_states();
-  std::vector<double> u(model->num_inputs(), 1.0);
-  u[*L.input("compressor_speed")] = 50.0;
-  u[*L.input("valve_opening")] = 0.355;
-  u[*L.input("outdoor_temperature")] = 35.0;
-  std::vector<double> y(model->num_outputs(), std::nan("")), x(n);
-  model->initial_guess(u, y, x);
-  Integrator settle(*model, IntegratorOptions{});
-  REQUIRE(settle.step(x, u, 600.0, {}).ok());
-  // A transient: 1.5 s of a speed and valve step, then back.
-  std::vector<double> u2 = u;
-  u2[*L.input("compressor_speed")] = 62.0;
-  u2[*L.input("valve_opening")] = 0.38;
-  REQUIRE(settle.step(x, u2, 1.5, {}).ok());
-
-  std::vector<double> scale;
-  for (const auto& s : L.states)
-    scale.push_back(s.abs_tol / 1e-6);
-  IntegratorOptions tight = sensitivities(SensitivityMethod::kCvodesNewton, 1e-10, true);
-  tight.abs_tol_scale = 1e-4;
-  std::vector<double> F_ref(n * n), F(n * n), F_newton(n * n), xs;
-  Integrator reference(*model, tight);
-  xs = x;
-  REQUIRE(reference.step(xs, u, 5.0, F_ref).ok());
+  std::vector<double> F(n * n), F_newton(n * n), xs;
 
   // Under sensitivity error control F converges with the tolerance.
   for (const double rel_tol : {1e-6, 1e-8}) {
@@ -167,4 +201,53 @@ TEST_CASE("heat pump: F by the direct solve is exact to the integrator's toleran
   CHECK(distance(F_newton, F_ref, scale) < 5e-3);
   CHECK(distance(F, F_newton, scale) < 5e-3);
   CHECK(direct.last_stats().model_jacobians <= direct.last_stats().steps + 5);
+}
+
+TEST_CASE("a linear model's F is exact with one Jacobian reused for every step", "[integrator]") {
+  // Reusing the Jacobian loses nothing; a distance no state moves beyond leaves one model
+  // Jacobian per call, where the exact default takes one per step.
+  const AdModel<Linear> model{Linear{}};
+  IntegratorOptions o = sensitivities(SensitivityMethod::kDirect, 1e-9, true);
+  Integrator exact(model, o);
+  o.jacobian_reuse_sigma = 1e9;
+  Integrator reused(model, o);
+  std::vector<double> xe{1.0, 1.0}, xr{1.0, 1.0}, Fe(4), Fr(4);
+  REQUIRE(exact.step(xe, {}, 3.0, Fe).ok());
+  REQUIRE(reused.step(xr, {}, 3.0, Fr).ok());
+  // exp(A t) of the upper-triangular A: e^{-2t}, (e^{-t/2} - e^{-2t}) / 1.5, 0, e^{-t/2}.
+  const double t = 3.0, e2 = std::exp(-2.0 * t), e05 = std::exp(-0.5 * t);
+  const std::vector<double> want{e2, 0.0, (e05 - e2) / 1.5, e05};  // column-major
+  for (std::size_t i = 0; i < 4; ++i) {
+    CHECK(Fr[i] == Approx(want[i]).margin(1e-6));
+    CHECK(Fe[i] == Approx(want[i]).margin(1e-6));
+  }
+  CHECK(reused.last_stats().model_jacobians == 1);
+  CHECK(exact.last_stats().model_jacobians > 10);
+}
+
+TEST_CASE("heat pump: a Jacobian reused within 0.05 sigma keeps F within its tolerance",
+          "[integrator][heat_pump]") {
+  const HeatPumpTransient hp;
+  REQUIRE(hp.ok);
+  const std::size_t n = hp.model->num_states();
+  std::vector<double> F(n * n), xs;
+
+  // The filters' settings: F under error control at a relative tolerance of 0.1.
+  IntegratorOptions o = sensitivities(SensitivityMethod::kDirect, 1e-6, true);
+  o.sensitivity_rel_tol = 0.1;
+  long jacobians[2] = {0, 0};
+  double error[2] = {0.0, 0.0};
+  for (const int reuse : {0, 1}) {
+    o.jacobian_reuse_sigma = reuse ? 0.05 : 0.0;
+    Integrator integ(*hp.model, o);
+    xs = hp.x;
+    REQUIRE(integ.step(xs, hp.u, 5.0, F).ok());
+    jacobians[reuse] = integ.last_stats().model_jacobians;
+    error[reuse] = distance(F, hp.F_ref, hp.scale);
+  }
+  INFO("Jacobians exact " << jacobians[0] << ", reused " << jacobians[1] << "; F error exact "
+                          << error[0] << ", reused " << error[1]);
+  CHECK(jacobians[1] < jacobians[0]);
+  CHECK(error[1] < 0.1 * 0.1);  // well inside F's own relative tolerance
+  CHECK(error[1] < 5.0 * error[0] + 1e-3);
 }
