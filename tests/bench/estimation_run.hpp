@@ -126,6 +126,10 @@ struct FilterRun {
       est::EnkfOptions o;
       o.members = members;
       o.threads = threads;
+      if (const char* tol = std::getenv("BENCH_ENKF_RTOL")) {  // the members' tolerance
+        o.integrator.rel_tol = std::atof(tol);
+        o.integrator.abs_tol_scale = o.integrator.rel_tol / 1e-6;
+      }
       filter = std::make_unique<est::ConstrainedEnkf>(*model, q, kMeasured.size(), o);
     } else {
       est::EkfOptions o;
