@@ -61,6 +61,7 @@ struct Content {
         M(size, size),
         B(size, count),
         X(size, count),
+        J_lu(size, size),
         lu(size) {}
   ~Content() { zero.destroy(); }
   Content(const Content&) = delete;
@@ -71,6 +72,11 @@ struct Content {
   StepJacobianFn jacobian;
   void* owner;
   Eigen::MatrixXd M, B, X;  // I - gamma J; right-hand sides; solution S_n
+  // The J and gamma `lu` factorises I - gamma J of: a step with the same two (a reused
+  // Jacobian, an unchanged step size and order) solves with the same factors.
+  Eigen::MatrixXd J_lu;
+  double gamma_lu = 0.0;
+  bool lu_valid = false;
   Eigen::PartialPivLU<Eigen::MatrixXd> lu;
   SUNNonlinSolConvTestFn ctest = nullptr;
   void* ctest_data = nullptr;
@@ -173,12 +179,18 @@ int solve(SUNNonlinearSolver s, N_Vector, N_Vector ycor, N_Vector w, realtype to
     ++c.conv_fails;
     return status < 0 ? CV_SRHSFUNC_FAIL : SUN_NLS_CONV_RECVR;  // > 0: CVODES shrinks the step
   }
-  c.M = -gamma * Eigen::Map<const Eigen::MatrixXd>(J, c.n, c.n);
-  c.M.diagonal().array() += 1.0;
-  c.lu.compute(c.M);
-  if (!(c.lu.matrixLU().diagonal().cwiseAbs().minCoeff() > 0.0)) {
-    ++c.conv_fails;
-    return SUN_NLS_CONV_RECVR;
+  const Eigen::Map<const Eigen::MatrixXd> Jm(J, c.n, c.n);
+  if (!(c.lu_valid && gamma == c.gamma_lu && Jm == c.J_lu)) {
+    c.M = -gamma * Jm;
+    c.M.diagonal().array() += 1.0;
+    c.lu.compute(c.M);
+    c.lu_valid = c.lu.matrixLU().diagonal().cwiseAbs().minCoeff() > 0.0;
+    if (!c.lu_valid) {
+      ++c.conv_fails;
+      return SUN_NLS_CONV_RECVR;
+    }
+    c.J_lu = Jm;
+    c.gamma_lu = gamma;
   }
   for (int j = 0; j < c.ns; ++j)
     c.B.col(j) = col(s_pred[j], c.n) - rl1 * col(s_zn1[j], c.n);

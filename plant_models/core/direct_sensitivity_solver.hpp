@@ -12,7 +12,9 @@
 // solver instead takes J(y_n) once, factorises I - gamma J(y_n) once (partial-pivoting LU) and
 // solves the ns right-hand sides in one blocked solve: the exact solution of the discrete
 // sensitivity equation, i.e. the derivative of CVODES's own BDF step map. The history, order and
-// step-size bookkeeping of S stay CVODES's.
+// step-size bookkeeping of S stay CVODES's. A step whose J and gamma are those of the last
+// factorisation (a reused Jacobian, an unchanged step size and order) reuses its factors: the
+// same matrix, so the same solution.
 //
 // With sensitivity error control, the convergence test CVODES installs is called as an exact
 // Newton iteration would call it: once with the whole correction, and, if that does not pass,
