@@ -37,7 +37,8 @@ inline constexpr long kMaxPredictSteps = 1000;
 // One model Jacobian serves the steps' sensitivity solves while no state has moved by more than
 // 0.05 of its initial sigma (0.5 kJ/kg on an enthalpy, 0.1 K on a wall) from where it was
 // evaluated. Measured on the heat pump at 12 cells, reuse distance 0 / 0.01 / 0.02 / 0.05 / 0.1:
-//  - race_bench --short --jacobian-reuse D: Jacobians per period (median) 41 / 12 / 7 / 4 / -,
+//  - race_bench --short --jacobian-reuse D: Jacobians per period (median) 41 / 12 / 7 / 4 / -
+//    (before the sensitivity right-hand sides shared the reuse; with them, 0.05 takes 2),
 //    worst relative error of the outputs' predicted sigma against a tight reference 1e-3 / 2e-3
 //    / 1e-2 / 2e-2 / - (F's own relative tolerance is 0.1);
 //  - estimation_bench --short --filters cekf (BENCH_JACOBIAN_REUSE=D), whose updates keep the

@@ -97,6 +97,15 @@ inline const std::vector<std::size_t>& nees_outputs() {
   return o;
 }
 
+// A relative tolerance from the environment variable `name`, if set, with the absolute
+// tolerances scaled alike (the model's are meant for 1e-6).
+inline void tolerance_from_env(plant::IntegratorOptions& o, const char* name) {
+  if (const char* tol = std::getenv(name)) {
+    o.rel_tol = std::atof(tol);
+    o.abs_tol_scale = o.rel_tol / 1e-6;
+  }
+}
+
 struct FilterRun {
   std::string name;
   std::unique_ptr<TimedModel> model;
@@ -126,18 +135,12 @@ struct FilterRun {
       est::EnkfOptions o;
       o.members = members;
       o.threads = threads;
-      if (const char* tol = std::getenv("BENCH_ENKF_RTOL")) {  // the members' tolerance
-        o.integrator.rel_tol = std::atof(tol);
-        o.integrator.abs_tol_scale = o.integrator.rel_tol / 1e-6;
-      }
+      tolerance_from_env(o.integrator, "BENCH_ENKF_RTOL");  // the members' tolerance
       filter = std::make_unique<est::ConstrainedEnkf>(*model, q, kMeasured.size(), o);
     } else {
       est::EkfOptions o;
       o.constrained = name == "constrained EKF";
-      if (const char* tol = std::getenv("BENCH_RTOL")) {
-        o.integrator.rel_tol = std::atof(tol);
-        o.integrator.abs_tol_scale = o.integrator.rel_tol / 1e-6;
-      }
+      tolerance_from_env(o.integrator, "BENCH_RTOL");
       // The Jacobian reuse distance (IntegratorOptions::jacobian_reuse_sigma), to compare.
       if (const char* d = std::getenv("BENCH_JACOBIAN_REUSE"))
         o.integrator.jacobian_reuse_sigma = std::atof(d);
