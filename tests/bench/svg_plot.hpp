@@ -33,7 +33,9 @@ inline void write_svg(const std::string& path, const std::string& title,
     << "' font-family='sans-serif' font-size='12'>\n<rect width='100%' height='100%' "
        "fill='white'/>\n<text x='"
     << W / 2 << "' y='22' text-anchor='middle' font-size='15'>" << title << "</text>\n";
-  const double x0 = x.front(), x1 = x.back() > x0 ? x.back() : x0 + 1;
+  // A run too short to record a sample (e.g. --hours below the first sample) draws empty axes.
+  const double x0 = x.empty() ? 0.0 : x.front();
+  const double x1 = !x.empty() && x.back() > x0 ? x.back() : x0 + 1;
   for (std::size_t p = 0; p < panels.size(); ++p) {
     const Panel& panel = panels[p];
     double lo = 1e300, hi = -1e300;
