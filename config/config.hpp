@@ -111,6 +111,9 @@ struct EstimatorConfig {
   // parameters, disturbances) are held at their priors for this many model seconds, while the
   // physical states converge onto the measurements [s].
   double parameter_hold_s = 600.0;
+  // Then their updates' gain rises from 0 to full over this many model seconds (a partial
+  // update: est::StatePhases, "release"); 0 releases them at once [s].
+  double parameter_release_s = 120.0;
   int checkpoint_every_cycles = 60;  // the whole filter state is saved to state_directory every
                                      // this many cycles; 0: never (always a cold start)
   // A checkpoint written longer ago than this resumes only the unit's properties (the model's

@@ -175,6 +175,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
             kMaxConsecutiveRejections);
   r.number("settle_s", e.settle_s, closed(0.0, kMaxPeriodS), false, "s");
   r.number("parameter_hold_s", e.parameter_hold_s, closed(0.0, kMaxPeriodS), false, "s");
+  r.number("parameter_release_s", e.parameter_release_s, closed(0.0, kMaxPeriodS), false, "s");
   r.choice("type", e.type, std::span<const std::string_view>(kEstimatorTypeNames),
            std::span<const EstimatorType>(kEstimatorTypes));
   r.integer("ensemble_members", e.ensemble_members, 4, 1000);

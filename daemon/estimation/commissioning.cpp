@@ -1,13 +1,17 @@
 #include "daemon/estimation/commissioning.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
 namespace hvac_twin::est {
 
 StatePhases::StatePhases(const plant::ModelLayout& layout, std::vector<KnownState> known,
-                         double settle_s, double commissioning_s)
-    : known_(std::move(known)), settle_s_(settle_s), commissioning_s_(commissioning_s) {
+                         double settle_s, double commissioning_s, double release_s)
+    : known_(std::move(known)),
+      settle_s_(settle_s),
+      commissioning_s_(commissioning_s),
+      release_s_(release_s) {
   const std::size_t n = layout.states.size();
   base_.assign(n, 0);
   augmented_.assign(n, 0);
@@ -63,8 +67,14 @@ std::string StatePhases::begin(Estimator& filter, double t) {
   return {};
 }
 
+double StatePhases::release_weight(double t) const {
+  if (!(release_s_ > 0.0) || !(settle_s_ > 0.0) || t >= settle_s_ + release_s_) return 1.0;
+  return std::max(0.0, (t - settle_s_) / release_s_);
+}
+
 void StatePhases::apply(Estimator& filter, double t, std::span<const double> u) const {
   const bool settle = settling(t), commission = commissioning(t);
+  const double release = release_weight(t);
   for (std::size_t i = 0; i < base_.size(); ++i) {
     bool consider = base_[i] != 0;
     if (commission && calibrate_[i] != 0) consider = false;
@@ -74,6 +84,7 @@ void StatePhases::apply(Estimator& filter, double t, std::span<const double> u) 
     if (excited_by_[i] >= 0 && input < u.size() && !(u[input] >= excitation_min_[i]))
       consider = true;
     filter.set_consider(i, consider);
+    filter.set_gain_weight(i, augmented_[i] != 0 ? release : 1.0);
   }
 }
 

@@ -13,6 +13,12 @@
 //    void fraction, which sets how much refrigerant a given subcooling means) are estimated.
 //  - excitation (every phase): a parameter the model marks as revealed only by a running
 //    process (StateInfo::excited_by) is held while its input says the process stands still.
+//  - release (release_s, after settling): the augmented states are estimated with a gain weight
+//    (Estimator::set_gain_weight) rising from 0 to 1. Released at once, with the whole prior
+//    sigma the hold kept, one update linearised at the prior moved them across their range and
+//    collapsed the predicted sigma of the outputs they drive; a sensor the move left 3 sigma
+//    off was gated out for good (the heat pump's condenser-outlet wall, fused in 0 of 72 cycles
+//    after the release; lost_track_test).
 //  - operation: the known states are estimated again (a change of the charge must show as a
 //    charge change); the calibrated closures are frozen at their estimates, their posterior sigma
 //    carried as consider states. Without commissioning they stay considered at their prior: their
@@ -38,9 +44,10 @@ struct KnownState {
 
 class StatePhases {
  public:
-  // layout: the filter's model's; known: empty for no commissioning.
+  // layout: the filter's model's; known: empty for no commissioning; release_s: the ramp of
+  // the augmented states' gain weight after settle_s (0: released at once).
   StatePhases(const plant::ModelLayout& layout, std::vector<KnownState> known, double settle_s,
-              double commissioning_s);
+              double commissioning_s, double release_s = 0.0);
 
   // The operation-phase flag of a state (initially the layout's consider || calibrate): the
   // configuration may override it.
@@ -52,8 +59,11 @@ class StatePhases {
   // filter is unchanged.
   std::string begin(Estimator& filter, double t);
 
-  // The flags for time t since the start, with the inputs over the coming period (empty: no
-  // excitation holds). No allocation.
+  // The gain weight of an augmented state at time t since the start (1 outside the release).
+  [[nodiscard]] double release_weight(double t) const;
+
+  // The flags and gain weights for time t since the start, with the inputs over the coming period
+  // (empty: no excitation holds). No allocation.
   void apply(Estimator& filter, double t, std::span<const double> u = {}) const;
 
   [[nodiscard]] bool settling(double t) const { return t < settle_s_; }
@@ -67,7 +77,7 @@ class StatePhases {
   std::vector<char> base_, augmented_, calibrate_, is_known_;
   std::vector<int> excited_by_;
   std::vector<double> excitation_min_;
-  double settle_s_, commissioning_s_;
+  double settle_s_, commissioning_s_, release_s_;
 };
 
 }  // namespace hvac_twin::est

@@ -354,9 +354,15 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
   ph_.noalias() = P_ * H_.row(o).transpose();
   const double s = H_.row(o).dot(ph_) + r;
   k_ = ph_ / s;
-  // Consider states keep their values: no gain (the Joseph form below stays exact for any gain).
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (consider_[static_cast<std::size_t>(i)] != 0) k_(i) = 0.0;
+  // Consider states keep their values: no gain; a partial update scales it (the Joseph form
+  // below stays exact for any gain).
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto j = static_cast<std::size_t>(i);
+    if (consider_[j] != 0)
+      k_(i) = 0.0;
+    else if (gain_weight_[j] != 1.0)
+      k_(i) *= gain_weight_[j];
+  }
   x_ += nu * k_;
   // Joseph form P' = (I - k h) P (I - k h)ᵀ + r k kᵀ, as rank-1 updates:
   // B = P - k (P hᵀ)ᵀ, then P' = B - (B hᵀ) kᵀ + r k kᵀ.

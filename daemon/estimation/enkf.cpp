@@ -278,8 +278,12 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     Kt_ = Pxy_.transpose();  // K = Pxy Pyy^-1, i.e. K' = Pyy^-1 Pxy'
     llt_.solveInPlace(Kt_);
     K_ = Kt_.transpose();
-    for (std::size_t j = 0; j < n_; ++j)  // consider states: no gain
-      if (consider_[j] != 0) K_.row(static_cast<Eigen::Index>(j)).setZero();
+    for (std::size_t j = 0; j < n_; ++j) {  // consider states: no gain; partial updates scaled
+      if (consider_[j] != 0)
+        K_.row(static_cast<Eigen::Index>(j)).setZero();
+      else if (gain_weight_[j] != 1.0)
+        K_.row(static_cast<Eigen::Index>(j)) *= gain_weight_[j];
+    }
     X_.noalias() += K_ * D_;
     counters_.fused += f;
   }

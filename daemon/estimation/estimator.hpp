@@ -152,6 +152,19 @@ class Estimator {
   [[nodiscard]] bool considered(std::size_t state) const {
     return state < consider_.size() && consider_[state] != 0;
   }
+  // Partial update (Brink, "Partial-update Schmidt-Kalman filter", JGCD 2017): an update moves
+  // an estimated state by `weight` (0 to 1, clamped) times the Kalman step; its covariance is
+  // that of the estimator so run (the EKF's Joseph form holds for any gain). 1 by default; a
+  // consider state is not moved whatever its weight. StatePhases ramps the augmented states'
+  // weight from 0 to 1 after the settling hold, so that a parameter released with its whole
+  // prior is not thrown, in one update linearised at the prior, to where its sigma collapses.
+  // No allocation.
+  void set_gain_weight(std::size_t state, double weight) {
+    if (state < gain_weight_.size()) gain_weight_[state] = std::clamp(weight, 0.0, 1.0);
+  }
+  [[nodiscard]] double gain_weight(std::size_t state) const {
+    return state < gain_weight_.size() ? gain_weight_[state] : 1.0;
+  }
 
  protected:
   // The filter's own estimate of every output and its standard deviation, without the model's
@@ -163,6 +176,7 @@ class Estimator {
   // (constructors; allocates).
   void init_consider(const plant::ModelLayout& layout) {
     consider_.assign(layout.states.size(), 0);
+    gain_weight_.assign(layout.states.size(), 1.0);
     for (std::size_t i = 0; i < layout.states.size(); ++i)
       consider_[i] = layout.states[i].consider ? 1 : 0;
     model_error_.clear();
@@ -173,6 +187,7 @@ class Estimator {
     }
   }
   std::vector<char> consider_;
+  std::vector<double> gain_weight_;                    // per state, 0 to 1 (set_gain_weight)
   std::vector<double> model_error_, model_error_rel_;  // per output
 
   // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A

@@ -119,7 +119,8 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
   model_ = plant::create_model(unit_.model.type, unit_.model.parameters);
   const plant::ModelLayout& layout = model_->layout();
   phases_cold_ = std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{},
-                                                    unit_.estimator.parameter_hold_s, 0.0);
+                                                    unit_.estimator.parameter_hold_s, 0.0,
+                                                    unit_.estimator.parameter_release_s);
   phases_resumed_ =
       std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{}, 0.0, 0.0);
   phases_ = phases_cold_.get();

@@ -61,11 +61,15 @@ struct SqrtSensor : RandomWalk {
 // (StateInfo::consider) unless `estimate_offset`.
 struct OffsetSensor {
   bool estimate_offset = false;
+  bool augmented_offset = false;  // b an augmented state (StatePhases holds and releases it)
   plant::ModelLayout layout() const {
     plant::ModelLayout l;
     l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
-    l.states.push_back(
-        plant::StateInfo{.name = "b", .unit = "1", .abs_tol = 1e-10, .consider = !estimate_offset});
+    l.states.push_back(plant::StateInfo{.name = "b",
+                                        .unit = "1",
+                                        .abs_tol = 1e-10,
+                                        .augmented = augmented_offset,
+                                        .consider = !estimate_offset});
     l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1"});
     return l;
   }
