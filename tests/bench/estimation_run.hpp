@@ -106,6 +106,12 @@ inline void tolerance_from_env(plant::IntegratorOptions& o, const char* name) {
   }
 }
 
+// The parameters' release ramp (kReleaseS), or env BENCH_RELEASE_S to compare (0: at once).
+inline double release_s() {
+  const char* r = std::getenv("BENCH_RELEASE_S");
+  return r != nullptr ? std::atof(r) : kReleaseS;
+}
+
 struct FilterRun {
   std::string name;
   std::unique_ptr<TimedModel> model;
@@ -171,7 +177,7 @@ struct FilterRun {
           commissioning_s > 0.0
               ? std::vector<est::KnownState>{{"charge", truth.x()[0], kWeighingSigma}}
               : std::vector<est::KnownState>{},
-          kSettleS, commissioning_s);
+          kSettleS, commissioning_s, release_s());
       const auto& states = model->layout().states;
       for (std::size_t i = 0; i < states.size(); ++i) {
         const auto it = consider_overrides().find(states[i].name);

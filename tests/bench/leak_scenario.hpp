@@ -169,8 +169,11 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   est::EkfOptions eo;
   eo.constrained = true;
   est::Ekf ekf(*model, q, kMeasured.size(), eo);
-  // The parameters held after the start, as the daemon holds them (estimator.parameter_hold_s).
-  const est::StatePhases phases(layout, {}, config::EstimatorConfig{}.parameter_hold_s, 0.0);
+  // The parameters held after the start and released, as the daemon holds and releases them
+  // (estimator.parameter_hold_s, parameter_release_s).
+  const config::EstimatorConfig defaults;
+  const est::StatePhases phases(layout, {}, defaults.parameter_hold_s, 0.0,
+                                defaults.parameter_release_s);
   constexpr int kRestartAfterFailedPredictions = 6;
   int failed_predictions = 0;
   bool restart_lost = false;  // the filter lost track kRestartAfterLostUpdates updates in a row
