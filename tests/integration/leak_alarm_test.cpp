@@ -116,10 +116,12 @@ TEST_CASE("a leaking unit raises LEAK on the leak topic, end to end", "[integrat
   const auto m = regex_find(log, R"(learnt its reference charges: .* \d+-\d* Hz (\d+\.\d+) kg)");
   REQUIRE(m.has_value());
   const double logged_reference = std::stod((*m)[1]);
-  // At the charge's level, not something else fed in (0, a rate in g/h): within 15 % of the
+  // At the charge's level, not something else fed in (0, a rate in g/h): within 20 % of the
   // nameplate. The raw charge estimate is off by up to 11 % in leak_bench's long runs, more while
-  // it converges; a fresh-clone CI run logged 0.5621 kg here.
-  CHECK(logged_reference == Approx(0.5).margin(0.075));
+  // it converges; a fresh-clone CI run logged 0.5621 kg here, and 0.5761 kg (0.5729 and 0.5744
+  // by hand) since the parameters' release ramp, which slows the charge's early convergence
+  // (README, "Since the parameter release ramp").
+  CHECK(logged_reference == Approx(0.5).margin(0.1));
   if (with_reference > 0) CHECK(reference_seen == Approx(logged_reference).margin(1e-4));
   CHECK(l.hold == dds::LeakHold::kNone);
   CHECK(l.leak_since_ns > 0);
