@@ -99,8 +99,8 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
 // (parameter_release_s 0) the first update moved them so far that the condenser-outlet wall was
 // gated out for good (fused in 0 of 72 cycles, 3 runs of 3); with the ramp, 72 of 72. From the
 // nominal guesses the instant release failed so too, rarely (once in CI, once in 27 runs by hand,
-// the discharge pressure). (On the cut-down 4-cell stack of the test above points stay out even
-// so: README, "Lost track".)
+// the discharge pressure). (On the cut-down 4-cell stack of the test above points stayed out,
+// measured before the ramp: README, "Lost track".)
 TEST_CASE("no fault: the parameter release keeps every measured point in", "[integration][track]") {
   StackOptions o = heat_pump_stack_options(70);
   const double hold_s = 240.0, end_h = 12.0 / 60.0, judged_from_h = (hold_s + 120.0) / 3600.0;
