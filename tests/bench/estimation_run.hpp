@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "config/config.hpp"
 #include "daemon/estimation/commissioning.hpp"
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/enkf.hpp"
@@ -106,10 +107,11 @@ inline void tolerance_from_env(plant::IntegratorOptions& o, const char* name) {
   }
 }
 
-// The parameters' release ramp (kReleaseS), or env BENCH_RELEASE_S to compare (0: at once).
+// The parameters' release ramp, the daemon's default (estimator.parameter_release_s), or env
+// BENCH_RELEASE_S to compare (0: at once).
 inline double release_s() {
   const char* r = std::getenv("BENCH_RELEASE_S");
-  return r != nullptr ? std::atof(r) : kReleaseS;
+  return r != nullptr ? std::atof(r) : config::EstimatorConfig{}.parameter_release_s;
 }
 
 struct FilterRun {

@@ -259,10 +259,9 @@ inline plant::ParameterMap& filter_parameters() {
 // (estimation_bench --commission H; 0, the default: no commissioning).
 inline double commissioning_s = 0.0;
 inline constexpr double kWeighingSigma = 0.005;  // kg
-// The filters hold their parameters this long after the start, then ramp their gain up over
-// kReleaseS (est::StatePhases), as the daemon does by default (config::EstimatorConfig).
+// The filters hold their parameters this long after the start (est::StatePhases), then ramp
+// their gain up as the daemon does by default (estimation_run.hpp, release_s()).
 inline constexpr double kSettleS = 600.0;
-inline constexpr double kReleaseS = 120.0;
 inline std::map<std::string, double>& process_noise_overrides() {
   static std::map<std::string, double> q;
   return q;
