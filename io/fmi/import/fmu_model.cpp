@@ -1,0 +1,289 @@
+#include "io/fmi/import/fmu_model.hpp"
+
+#include <dlfcn.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <utility>
+
+#include "io/fmi/import/fmu_archive.hpp"
+
+namespace hvac_twin::fmi {
+
+class FmuLibrary {
+ public:
+  ~FmuLibrary() {
+    if (handle != nullptr) dlclose(handle);
+  }
+  ModelDescription description;
+  std::string directory;
+  void* handle = nullptr;
+  fmi2InstantiateTYPE instantiate = nullptr;
+  fmi2FreeInstanceTYPE free_instance = nullptr;
+  fmi2SetupExperimentTYPE setup_experiment = nullptr;
+  fmi2EnterInitializationModeTYPE enter_initialization = nullptr;
+  fmi2ExitInitializationModeTYPE exit_initialization = nullptr;
+  fmi2NewDiscreteStatesTYPE new_discrete_states = nullptr;
+  fmi2EnterContinuousTimeModeTYPE enter_continuous = nullptr;
+  fmi2SetTimeTYPE set_time = nullptr;
+  fmi2SetRealTYPE set_real = nullptr;
+  fmi2GetRealTYPE get_real = nullptr;
+  fmi2SetContinuousStatesTYPE set_states = nullptr;
+  fmi2GetDerivativesTYPE get_derivatives = nullptr;
+  fmi2GetDirectionalDerivativeTYPE directional = nullptr;  // when provided
+};
+
+namespace {
+
+template <class F>
+void bind(FmuLibrary& lib, F& fn, const char* name, const std::string& so, bool required = true) {
+  fn = reinterpret_cast<F>(dlsym(lib.handle, name));
+  if (fn == nullptr && required) throw FmuError(so + ": does not export " + name);
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FmuError(path + ": missing from the FMU (an FMU must contain it)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
+                                           const std::string& unpack_directory) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(fmu_path, ec)) throw FmuError(fmu_path + ": no such file");
+  unpack_fmu(fmu_path, unpack_directory);
+  auto lib = std::make_shared<FmuLibrary>();
+  lib->directory = std::filesystem::absolute(unpack_directory).string();
+  const std::string xml_path = lib->directory + "/modelDescription.xml";
+  lib->description = parse_model_description(read_file(xml_path), fmu_path);
+  const std::string so =
+      lib->directory + "/binaries/linux64/" + lib->description.model_identifier + ".so";
+  if (!std::filesystem::is_regular_file(so, ec))
+    throw FmuError(fmu_path + ": no linux64 binary (binaries/linux64/" +
+                   lib->description.model_identifier + ".so)");
+  lib->handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (lib->handle == nullptr) throw FmuError(so + ": cannot load: " + dlerror());
+  auto get_version = reinterpret_cast<fmi2GetVersionTYPE>(dlsym(lib->handle, "fmi2GetVersion"));
+  if (get_version == nullptr) throw FmuError(so + ": does not export fmi2GetVersion");
+  const std::string version = get_version();
+  if (version != "2.0")
+    throw FmuError(so + ": fmi2GetVersion() is \"" + version + "\", not \"2.0\"");
+  bind(*lib, lib->instantiate, "fmi2Instantiate", so);
+  bind(*lib, lib->free_instance, "fmi2FreeInstance", so);
+  bind(*lib, lib->setup_experiment, "fmi2SetupExperiment", so);
+  bind(*lib, lib->enter_initialization, "fmi2EnterInitializationMode", so);
+  bind(*lib, lib->exit_initialization, "fmi2ExitInitializationMode", so);
+  bind(*lib, lib->new_discrete_states, "fmi2NewDiscreteStates", so);
+  bind(*lib, lib->enter_continuous, "fmi2EnterContinuousTimeMode", so);
+  bind(*lib, lib->set_time, "fmi2SetTime", so);
+  bind(*lib, lib->set_real, "fmi2SetReal", so);
+  bind(*lib, lib->get_real, "fmi2GetReal", so);
+  bind(*lib, lib->set_states, "fmi2SetContinuousStates", so);
+  bind(*lib, lib->get_derivatives, "fmi2GetDerivatives", so);
+  bind(*lib, lib->directional, "fmi2GetDirectionalDerivative", so,
+       lib->description.provides_directional_derivative);
+  return lib;
+}
+
+const ModelDescription& description_of(const FmuLibrary& library) {
+  return library.description;
+}
+
+void FmuModel::logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                      fmi2String category, fmi2String message, ...) {
+  if (env == nullptr || status < fmi2Error) return;  // warnings and debug output are dropped
+  char text[512];
+  va_list args;
+  va_start(args, message);
+  std::vsnprintf(text, sizeof text, message == nullptr ? "" : message, args);
+  va_end(args);
+  static_cast<FmuModel*>(env)->last_error_ = std::string(instance == nullptr ? "" : instance) +
+                                             " [" + (category == nullptr ? "" : category) +
+                                             "]: " + text;
+}
+
+FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options)
+    : lib_(std::move(library)), options_(std::move(options)) {
+  const ModelDescription& d = lib_->description;
+  const auto& vars = d.variables;
+  for (std::size_t k = 0; k < d.states.size(); ++k) {
+    const FmuVariable& v = vars[d.states[k]];
+    plant::StateInfo s;
+    s.name = v.name;
+    s.unit = v.unit;
+    s.min = v.min;
+    s.max = v.max;
+    s.initial = std::isnan(v.start) ? 0.0 : v.start;
+    s.initial_std = 0.1 * std::max(std::abs(s.initial), std::abs(v.nominal));
+    s.abs_tol = 1e-6 * std::abs(v.nominal);
+    s.description = v.description;
+    layout_.states.push_back(s);
+    state_refs_.push_back(v.ref);
+    derivative_refs_.push_back(vars[d.derivatives[k]].ref);
+    nominal_.push_back(std::abs(v.nominal));
+  }
+  for (std::size_t i : d.inputs) {
+    const FmuVariable& v = vars[i];
+    layout_.inputs.push_back({v.name, v.unit, v.min, v.max, v.start, v.description});
+    input_refs_.push_back(v.ref);
+  }
+  for (std::size_t i : d.outputs) {
+    const FmuVariable& v = vars[i];
+    layout_.outputs.push_back({v.name, v.unit, v.min, v.max, plant::kRequired, v.description});
+    output_refs_.push_back(v.ref);
+  }
+  std::vector<fmi2ValueReference> param_refs;
+  std::vector<double> param_values;
+  for (const auto& [name, value] : options_.parameters) {
+    const FmuVariable* v = d.find(name);
+    if (v == nullptr || v->causality != "parameter" || v->type != "Real")
+      throw FmuError("FMU " + d.model_name + ": \"" + name + "\" is not a Real parameter");
+    if (!(value >= v->min && value <= v->max))
+      throw FmuError("FMU " + d.model_name + ": parameter \"" + name +
+                     "\" = " + std::to_string(value) + " is outside its range");
+    param_refs.push_back(v->ref);
+    param_values.push_back(value);
+  }
+  method_ = lib_->directional != nullptr && !options_.finite_differences
+                ? JacobianMethod::kDirectionalDerivative
+                : JacobianMethod::kFiniteDifferences;
+  const std::size_t n = layout_.states.size();
+  x_try_.resize(n);
+  f_plus_.resize(std::max(n, output_refs_.size()));
+  f_minus_.resize(std::max(n, output_refs_.size()));
+
+  callbacks_.logger = &FmuModel::logger;
+  callbacks_.allocateMemory = [](std::size_t count, std::size_t size) {
+    return std::calloc(count, size);
+  };
+  callbacks_.freeMemory = [](void* p) { std::free(p); };
+  callbacks_.componentEnvironment = this;
+  const std::string resources = "file://" + lib_->directory + "/resources";
+  component_ = lib_->instantiate(options_.instance_name.c_str(), fmi2ModelExchange, d.guid.c_str(),
+                                 resources.c_str(), &callbacks_, fmi2False, fmi2False);
+  if (component_ == nullptr)
+    throw FmuError("FMU " + d.model_name + ": fmi2Instantiate refused: " + last_error_);
+  const auto check = [&](fmi2Status s, const char* call) {
+    if (s > fmi2Warning)
+      throw FmuError("FMU " + d.model_name + ": " + call + " failed: " + last_error_);
+  };
+  check(lib_->setup_experiment(component_, fmi2False, 0.0, 0.0, fmi2False, 0.0),
+        "fmi2SetupExperiment");
+  if (!param_refs.empty())
+    check(lib_->set_real(component_, param_refs.data(), param_refs.size(), param_values.data()),
+          "fmi2SetReal (parameters)");
+  check(lib_->enter_initialization(component_), "fmi2EnterInitializationMode");
+  check(lib_->exit_initialization(component_), "fmi2ExitInitializationMode");
+  fmi2EventInfo info{};
+  info.newDiscreteStatesNeeded = fmi2True;
+  for (int i = 0; i < 100 && info.newDiscreteStatesNeeded != fmi2False; ++i)
+    check(lib_->new_discrete_states(component_, &info), "fmi2NewDiscreteStates");
+  if (info.newDiscreteStatesNeeded != fmi2False)
+    throw FmuError("FMU " + d.model_name + ": event iteration did not converge");
+  check(lib_->enter_continuous(component_), "fmi2EnterContinuousTimeMode");
+  check(lib_->set_time(component_, 0.0), "fmi2SetTime");
+}
+
+FmuModel::~FmuModel() {
+  if (component_ != nullptr) lib_->free_instance(component_);
+}
+
+std::unique_ptr<plant::ContinuousModel> FmuModel::clone() const {
+  return std::make_unique<FmuModel>(lib_, options_);
+}
+
+int FmuModel::status(fmi2Status s, const char* call) const {
+  if (s <= fmi2Warning) return plant::kModelOk;
+  if (s == fmi2Discard) return plant::kModelRecoverable;
+  failed_ = true;
+  if (last_error_.empty()) last_error_ = std::string(call) + " failed";
+  return plant::kModelFatal;
+}
+
+int FmuModel::set(std::span<const double> x, std::span<const double> u) const {
+  if (failed_) return plant::kModelFatal;
+  if (x.size() != state_refs_.size() || u.size() != input_refs_.size()) return plant::kModelFatal;
+  int s = status(lib_->set_states(component_, x.data(), x.size()), "fmi2SetContinuousStates");
+  if (s == plant::kModelOk && !u.empty())
+    s = status(lib_->set_real(component_, input_refs_.data(), u.size(), u.data()), "fmi2SetReal");
+  return s;
+}
+
+int FmuModel::eval(bool outputs, std::span<const double> x, std::span<const double> u,
+                   std::span<double> out) const {
+  if (const int s = set(x, u); s != plant::kModelOk) return s;
+  if (outputs)
+    return status(lib_->get_real(component_, output_refs_.data(), output_refs_.size(), out.data()),
+                  "fmi2GetReal");
+  return status(lib_->get_derivatives(component_, out.data(), out.size()), "fmi2GetDerivatives");
+}
+
+int FmuModel::rhs(std::span<const double> x, std::span<const double> u,
+                  std::span<double> xdot) const {
+  return eval(false, x, u, xdot);
+}
+
+int FmuModel::outputs(std::span<const double> x, std::span<const double> u,
+                      std::span<double> y) const {
+  return eval(true, x, u, y);
+}
+
+int FmuModel::rhs_jacobian(std::span<const double> x, std::span<const double> u,
+                           std::span<double> xdot, std::span<double> jac) const {
+  return jacobian(false, x, u, xdot, jac);
+}
+
+int FmuModel::output_jacobian(std::span<const double> x, std::span<const double> u,
+                              std::span<double> y, std::span<double> jac) const {
+  return jacobian(true, x, u, y, jac);
+}
+
+int FmuModel::jacobian(bool outputs, std::span<const double> x, std::span<const double> u,
+                       std::span<double> value, std::span<double> jac) const {
+  const std::size_t n = state_refs_.size();
+  const std::size_t rows = outputs ? output_refs_.size() : n;
+  const std::vector<fmi2ValueReference>& unknowns = outputs ? output_refs_ : derivative_refs_;
+  if (!value.empty())
+    if (const int s = eval(outputs, x, u, value); s != plant::kModelOk) return s;
+  if (method_ == JacobianMethod::kDirectionalDerivative) {
+    if (value.empty())
+      if (const int s = set(x, u); s != plant::kModelOk) return s;
+    const double one = 1.0;
+    for (std::size_t j = 0; j < n; ++j) {
+      const int s = status(lib_->directional(component_, unknowns.data(), rows, &state_refs_[j], 1,
+                                             &one, jac.data() + j * rows),
+                           "fmi2GetDirectionalDerivative");
+      if (s != plant::kModelOk) return s;
+    }
+    return plant::kModelOk;
+  }
+  // Central differences, step cbrt(eps) max(|x_j|, nominal_j).
+  static const double kStep = std::cbrt(std::numeric_limits<double>::epsilon());
+  std::copy(x.begin(), x.end(), x_try_.begin());
+  const std::span<double> plus(f_plus_.data(), rows), minus(f_minus_.data(), rows);
+  for (std::size_t j = 0; j < n; ++j) {
+    const double h = kStep * std::max(std::abs(x[j]), nominal_[j]);
+    x_try_[j] = x[j] + h;
+    int s = eval(outputs, x_try_, u, plus);
+    x_try_[j] = x[j] - h;
+    if (s == plant::kModelOk) s = eval(outputs, x_try_, u, minus);
+    x_try_[j] = x[j];
+    if (s != plant::kModelOk) return s;
+    for (std::size_t r = 0; r < rows; ++r)
+      jac[j * rows + r] = (plus[r] - minus[r]) / (2.0 * h);
+  }
+  return plant::kModelOk;
+}
+
+}  // namespace hvac_twin::fmi

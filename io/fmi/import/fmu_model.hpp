@@ -1,0 +1,96 @@
+// An FMI 2.0 Model Exchange FMU as a plant model: the same ContinuousModel interface the built-in
+// models implement, so the integrator, the filters, checkpoints and virtual sensors run on it
+// unchanged.
+//
+//   states       the <Derivatives> of ModelStructure and the variables they are derivatives of;
+//                min/max become the state bounds of the constrained update, start the initial
+//                estimate, 0.1 max(|start|, nominal) its default sigma
+//   inputs       causality "input" (start: the default when no point provides one)
+//   outputs      causality "output", in <Outputs> order
+//   parameters   causality "parameter" (Real), set before initialisation from a ParameterMap
+//
+// The model is autonomous (ContinuousModel has no time): an FMU whose equations read `time`
+// sees 0. Jacobians: fmi2GetDirectionalDerivative, one state direction per call, when the FMU
+// provides it; otherwise central differences, step cbrt(eps) max(|x_j|, nominal_j) (2n
+// evaluations). jacobian_method() says which.
+//
+// Errors: fmi2Discard is recoverable (kModelRecoverable: the integrator retries smaller);
+// fmi2Error and fmi2Fatal are fatal, and the instance is not called again (every later call
+// returns kModelFatal); last_error() holds the FMU's last logged message. In-process isolation
+// only: an FMU that crashes or corrupts memory takes the process with it.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "io/fmi/fmi2.hpp"
+#include "io/fmi/import/model_description.hpp"
+#include "plant_models/core/model.hpp"
+
+namespace hvac_twin::fmi {
+
+// An unpacked, loaded FMU: its description and its shared library. Shared by the instances.
+class FmuLibrary;
+
+enum class JacobianMethod { kDirectionalDerivative, kFiniteDifferences };
+
+struct FmuOptions {
+  plant::ParameterMap parameters;   // by variable name; each must be a Real parameter
+  bool finite_differences = false;  // even when the FMU provides directional derivatives
+  std::string instance_name = "hvac-twin";
+};
+
+// Unpacks `fmu_path` into `unpack_directory`, parses and checks its description, and loads
+// binaries/linux64/<modelIdentifier>.so. Start-up only; throws FmuError.
+std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
+                                           const std::string& unpack_directory);
+
+const ModelDescription& description_of(const FmuLibrary& library);
+
+class FmuModel final : public plant::ContinuousModel {
+ public:
+  // Instantiates and initialises the FMU. Throws FmuError (unknown parameter, refused instance).
+  FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options);
+  ~FmuModel() override;
+
+  [[nodiscard]] const plant::ModelLayout& layout() const override { return layout_; }
+  int rhs(std::span<const double> x, std::span<const double> u,
+          std::span<double> xdot) const override;
+  int rhs_jacobian(std::span<const double> x, std::span<const double> u, std::span<double> xdot,
+                   std::span<double> jac) const override;
+  int outputs(std::span<const double> x, std::span<const double> u,
+              std::span<double> y) const override;
+  int output_jacobian(std::span<const double> x, std::span<const double> u, std::span<double> y,
+                      std::span<double> jac) const override;
+  [[nodiscard]] std::unique_ptr<plant::ContinuousModel> clone() const override;
+
+  [[nodiscard]] JacobianMethod jacobian_method() const { return method_; }
+  [[nodiscard]] const std::string& last_error() const { return last_error_; }
+  [[nodiscard]] bool failed() const { return failed_; }
+
+ private:
+  static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                     fmi2String category, fmi2String message, ...);
+  int status(fmi2Status s, const char* call) const;
+  int set(std::span<const double> x, std::span<const double> u) const;
+  int eval(bool outputs, std::span<const double> x, std::span<const double> u,
+           std::span<double> out) const;
+  int jacobian(bool outputs, std::span<const double> x, std::span<const double> u,
+               std::span<double> value, std::span<double> jac) const;
+
+  std::shared_ptr<const FmuLibrary> lib_;
+  FmuOptions options_;
+  plant::ModelLayout layout_;
+  JacobianMethod method_;
+  std::vector<fmi2ValueReference> state_refs_, derivative_refs_, input_refs_, output_refs_;
+  std::vector<double> nominal_;
+  fmi2CallbackFunctions callbacks_{};
+  fmi2Component component_ = nullptr;
+  mutable std::vector<double> x_try_, f_plus_, f_minus_;
+  mutable std::string last_error_;
+  mutable bool failed_ = false;
+};
+
+}  // namespace hvac_twin::fmi
