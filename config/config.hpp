@@ -68,6 +68,7 @@ struct ModelConfig {
   std::string type;                          // required; a model of the catalog, e.g. "zone_rc"
   std::map<std::string, double> parameters;  // name -> value in the parameter's unit; omitted
                                              // parameters take the model's defaults
+  std::string file;  // type "fmu": the FMU's absolute path (JSON "fmu")
 };
 
 // Which filter runs the unit (JSON "ekf" | "constrained_ekf" | "constrained_enkf").

@@ -77,6 +77,49 @@ double max_process_noise(const plant::StateInfo& s) {
                                              : kMaxUnboundedStd;
 }
 
+// "fmu": the file a model type with from_file() takes its model from (must be absolute: the
+// daemon's working directory is not the configuration's), replacing the type's schema by the
+// file's. Any other type has no file.
+void read_model_file(ObjectReader& r, Errors& errors, ModelSection& out) {
+  const Ref file = r.get("fmu");
+  const bool wants_file = out.schema != nullptr && out.schema->from_file;
+  if (!file.present()) {
+    if (wants_file) {
+      errors.add(*r.ref().node, r.ref().pointer,
+                 "missing required field \"fmu\" (model type " + quote(out.schema->type) +
+                     " takes its model from a file: the FMU's absolute path)");
+      out.schema = nullptr;
+    }
+    return;
+  }
+  const auto path = read_string(file, errors);
+  if (!path) {
+    if (wants_file) out.schema = nullptr;
+    return;
+  }
+  if (!wants_file) {
+    if (out.schema != nullptr)
+      errors.add(*file.node, file.pointer,
+                 "model type " + quote(out.schema->type) + " is built in and takes no file");
+    return;
+  }
+  out.schema = nullptr;
+  if (path->empty() || path->front() != '/') {
+    errors.add(*file.node, file.pointer, "expected the FMU's absolute path; got " + quote(*path));
+    return;
+  }
+  try {
+    out.file_schema =
+        std::make_shared<const plant::ModelSchema>(out.catalog_schema->from_file(*path));
+    out.schema = out.file_schema.get();
+    out.config.file = *path;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    errors.add(*file.node, file.pointer, e.what());
+  }
+}
+
 }  // namespace
 
 ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& models) {
@@ -86,6 +129,7 @@ ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& mode
     if (const auto name = read_string(type, errors)) {
       for (const auto& schema : models)
         if (schema.type == *name) out.schema = &schema;
+      out.catalog_schema = out.schema;
       if (out.schema == nullptr) {
         std::vector<std::string> known;
         for (const auto& schema : models)
@@ -100,6 +144,7 @@ ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& mode
       }
     }
   }
+  read_model_file(r, errors, out);
   // An invalid parameter takes its default for the layout, so that the points and estimator are
   // still checked, except an invalid integer (structural) parameter: the layout depends on it.
   bool structural_ok = true;

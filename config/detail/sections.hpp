@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -34,8 +35,10 @@ ModbusSection read_modbus(const Ref& ref, Errors& errors);
 
 struct ModelSection {
   ModelConfig config;
-  const plant::ModelSchema* schema = nullptr;  // when the type is known
-  std::optional<plant::ModelLayout> layout;    // when the type is known and parameters valid
+  const plant::ModelSchema* schema = nullptr;             // when the type (and its file) is known
+  const plant::ModelSchema* catalog_schema = nullptr;     // the type's, from the catalog
+  std::shared_ptr<const plant::ModelSchema> file_schema;  // a file's (an FMU's): schema's owner
+  std::optional<plant::ModelLayout> layout;  // when the type is known and parameters valid
 };
 ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& models);
 

@@ -24,8 +24,8 @@
 #include "daemon/replay/smoothing.hpp"
 #include "daemon/replay/tool_cli.hpp"
 #include "daemon/runtime/logging.hpp"
+#include "daemon/runtime/unit_model.hpp"
 #include "daemon/runtime/unit_pipeline.hpp"
-#include "plant_models/catalog.hpp"
 
 namespace {
 
@@ -122,7 +122,7 @@ int export_points(const std::vector<std::string>& files, const hvac_twin::config
 
 int replay(const Options& o) {
   auto loaded =
-      hvac_twin::config::load_config_file(o.config_path, hvac_twin::plant::model_schemas());
+      hvac_twin::config::load_config_file(o.config_path, hvac_twin::runtime::model_catalog());
   if (!loaded.errors.empty()) {
     std::fputs(hvac_twin::config::format_errors(loaded.errors, o.config_path).c_str(), stderr);
     std::fprintf(stderr, "hvac-twin-replay: invalid configuration\n");
@@ -155,7 +155,12 @@ int replay(const Options& o) {
     }
   }
   const auto log = hvac_twin::runtime::make_logger(o.log_level);
-  const auto model = hvac_twin::plant::create_model(unit.model.type, unit.model.parameters);
+  // An FMU is unpacked into a private directory, for the pipeline as the daemon's state
+  // directory would be (<dir>/fmu/<unit>) and for the layout here (<dir>/layout).
+  const hvac_twin::runtime::PrivateDirectory fmu_directory;
+  config.state_directory = fmu_directory.path();
+  const auto model =
+      hvac_twin::runtime::make_unit_model(unit.model, fmu_directory.path() + "/layout").model;
   std::vector<std::string> outputs, points;
   for (const auto& s : model->layout().outputs)
     outputs.push_back(s.name);

@@ -15,7 +15,7 @@
 #include "config/load.hpp"
 #include "daemon/runtime/daemon.hpp"
 #include "daemon/runtime/logging.hpp"
-#include "plant_models/catalog.hpp"
+#include "daemon/runtime/unit_model.hpp"
 
 namespace {
 
@@ -40,7 +40,7 @@ void usage(std::FILE* to) {
 }
 
 hvac_twin::config::LoadResult load(const std::string& path) {
-  return hvac_twin::config::load_config_file(path, hvac_twin::plant::model_schemas());
+  return hvac_twin::config::load_config_file(path, hvac_twin::runtime::model_catalog());
 }
 
 // Prints the first config::kMaxShownErrors errors of `result`; returns how many it left out.

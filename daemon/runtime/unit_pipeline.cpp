@@ -10,8 +10,8 @@
 #include "daemon/estimation/ekf.hpp"
 #include "daemon/estimation/enkf.hpp"
 #include "daemon/runtime/clock.hpp"
+#include "daemon/runtime/unit_model.hpp"
 #include "io/modbus/poller.hpp"
-#include "plant_models/catalog.hpp"
 #include "plant_models/core/settling.hpp"
 
 namespace hvac_twin::runtime {
@@ -116,7 +116,9 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
       wall_period_ns_(static_cast<std::int64_t>(
           std::llround(unit_.estimator.period_s / config.runtime.time_scale * 1e9))),
       deadline_ns_(static_cast<std::int64_t>(std::llround(unit_.estimator.deadline_s * 1e9))) {
-  model_ = plant::create_model(unit_.model.type, unit_.model.parameters);
+  UnitModel made = make_unit_model(unit_.model, config.state_directory + "/fmu/" + unit_.id);
+  model_ = std::move(made.model);
+  log_->info("unit {}: model {}", unit_.id, made.origin);
   const plant::ModelLayout& layout = model_->layout();
   phases_cold_ = std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{},
                                                     unit_.estimator.parameter_hold_s, 0.0,

@@ -130,6 +130,10 @@ struct ModelSchema {
   std::vector<ParameterInfo> parameters;
   // Called with every parameter present and inside its range; must not throw for such a set.
   std::function<ModelLayout(const ParameterMap&)> layout;
+  // A model type whose model comes from a file (an FMU): the schema of the model in `path`, with
+  // its own parameters and layout. Throws std::runtime_error saying what is wrong with the file.
+  // Empty for the built-in types.
+  std::function<ModelSchema(const std::string& path)> from_file;
 };
 
 }  // namespace hvac_twin::plant

@@ -21,7 +21,7 @@ std::optional<std::vector<std::string>> regex_find(const std::string& text,
 }
 
 int Stack::start_sim(int port) {
-  write_config(port == 0 ? 1 : port);  // the simulator reads the same file
+  write_config(port == 0 ? 1 : port, false);  // the simulator reads the same file
   std::vector<std::string> args{
       "--config",    path("config.json"),
       "--port",      std::to_string(port),
@@ -54,7 +54,7 @@ const char* daemon_exe(const std::vector<std::string>& args) {
 void Stack::start_daemon_under(const std::vector<std::string>& wrapper,
                                const std::vector<std::string>& extra_args,
                                const std::vector<std::string>& env) {
-  write_config(port_);
+  write_config(port_, true);
   std::vector<std::string> args;
   if (!wrapper.empty()) {
     args.assign(wrapper.begin() + 1, wrapper.end());
@@ -99,7 +99,7 @@ std::vector<nlohmann::json> read_json_lines(const std::string& path) {
   return out;
 }
 
-void Stack::write_config(int port) const {
+void Stack::write_config(int port, bool for_daemon) const {
   std::ifstream in(std::string(HVAC_TWIN_SOURCE_DIR) + "/" + o_.base_config);
   nlohmann::json c = nlohmann::json::parse(in);
   auto& unit = c["units"][0];
@@ -113,6 +113,7 @@ void Stack::write_config(int port) const {
   c["runtime"]["time_scale"] = o_.time_scale;
   c["state_directory"] = path("state");
   if (o_.customize) o_.customize(c);
+  if (for_daemon && o_.daemon_customize) o_.daemon_customize(c);
   std::ofstream(path("config.json")) << c.dump(2);
 }
 

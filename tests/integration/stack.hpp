@@ -29,7 +29,10 @@ struct StackOptions {
   std::uint64_t seed = 1;
   std::string base_config = "config/demo.json";    // relative to the source tree
   std::function<void(nlohmann::json&)> customize;  // last edit of the configuration
-  std::vector<std::string> sim_args;               // more simulator options (e.g. --leak)
+  // An edit of the daemon's configuration only, after `customize` (the simulator's plant stays
+  // the configuration's built-in model, e.g. when the daemon runs it as an FMU).
+  std::function<void(nlohmann::json&)> daemon_customize;
+  std::vector<std::string> sim_args;  // more simulator options (e.g. --leak)
 };
 
 // For the tests of topics and the daemon's life on the heat pump (not of its accuracy): the
@@ -134,8 +137,9 @@ class Stack {
   // Every JSON line the echo has written so far (a partial last line is skipped).
   std::vector<nlohmann::json> samples() const { return read_json_lines(path("echo.jsonl")); }
 
-  // The demo configuration, made fast and private to this stack.
-  void write_config(int port) const;
+  // The demo configuration, made fast and private to this stack (for the simulator: without
+  // daemon_customize).
+  void write_config(int port, bool for_daemon = true) const;
 
  private:
   ScratchDir dir_;  // first: removed after the processes writing into it are gone

@@ -32,11 +32,13 @@ fs::path safe_relative(const std::string& name) {
   return p;
 }
 
-}  // namespace
+using Archive = std::unique_ptr<zip_t, ZipCloser>;
 
-void unpack_fmu(const std::string& fmu_path, const std::string& directory) {
+Archive open_archive(const std::string& fmu_path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(fmu_path, ec)) throw FmuError(fmu_path + ": no such file");
   int error = 0;
-  std::unique_ptr<zip_t, ZipCloser> archive(zip_open(fmu_path.c_str(), ZIP_RDONLY, &error));
+  Archive archive(zip_open(fmu_path.c_str(), ZIP_RDONLY, &error));
   if (!archive) {
     zip_error_t ze;
     zip_error_init_with_code(&ze, error);
@@ -44,6 +46,34 @@ void unpack_fmu(const std::string& fmu_path, const std::string& directory) {
     zip_error_fini(&ze);
     throw FmuError(fmu_path + ": cannot open as an FMU (zip archive): " + why);
   }
+  return archive;
+}
+
+}  // namespace
+
+ModelDescription read_fmu_description(const std::string& fmu_path) {
+  const Archive archive = open_archive(fmu_path);
+  const zip_int64_t at = zip_name_locate(archive.get(), "modelDescription.xml", 0);
+  if (at < 0) throw FmuError(fmu_path + ": modelDescription.xml: missing from the FMU");
+  zip_stat_t st;
+  if (zip_stat_index(archive.get(), static_cast<zip_uint64_t>(at), 0, &st) != 0 ||
+      (st.valid & ZIP_STAT_SIZE) == 0 || st.size > kMaxDescriptionBytes)
+    throw FmuError(fmu_path + ": modelDescription.xml unreadable or larger than " +
+                   std::to_string(kMaxDescriptionBytes >> 20) + " MiB");
+  std::string text(static_cast<std::size_t>(st.size), '\0');
+  std::unique_ptr<zip_file_t, FileCloser> in(
+      zip_fopen_index(archive.get(), static_cast<zip_uint64_t>(at), 0));
+  if (!in || zip_fread(in.get(), text.data(), text.size()) != static_cast<zip_int64_t>(st.size))
+    throw FmuError(fmu_path + ": modelDescription.xml corrupt");
+  ModelDescription d = parse_model_description(text, fmu_path);
+  const std::string binary = "binaries/linux64/" + d.model_identifier + ".so";
+  if (zip_name_locate(archive.get(), binary.c_str(), 0) < 0)
+    throw FmuError(fmu_path + ": no linux64 binary (" + binary + ")");
+  return d;
+}
+
+void unpack_fmu(const std::string& fmu_path, const std::string& directory) {
+  const Archive archive = open_archive(fmu_path);
   const zip_int64_t entries = zip_get_num_entries(archive.get(), 0);
   if (entries < 0 || static_cast<std::size_t>(entries) > kMaxEntries)
     throw FmuError(fmu_path + ": " + std::to_string(entries) + " entries (at most " +

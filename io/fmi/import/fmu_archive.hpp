@@ -8,10 +8,17 @@
 #include <cstddef>
 #include <string>
 
+#include "io/fmi/import/model_description.hpp"
+
 namespace hvac_twin::fmi {
 
 inline constexpr std::size_t kMaxUnpackedBytes = std::size_t{1} << 30;  // 1 GiB
 inline constexpr std::size_t kMaxEntries = 100000;
+inline constexpr std::size_t kMaxDescriptionBytes = std::size_t{64} << 20;  // 64 MiB
+
+// The FMU's description, read from the archive without unpacking it, and checked as the import
+// checks it (parse_model_description), and that the archive holds its linux64 binary.
+ModelDescription read_fmu_description(const std::string& fmu_path);
 
 // Written into each unpack directory: an earlier unpack there is replaced whole.
 inline constexpr const char* kUnpackMarker = ".hvac-twin-fmu";

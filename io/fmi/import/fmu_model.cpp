@@ -60,8 +60,6 @@ std::string read_file(const std::string& path) {
 
 std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
                                            const std::string& unpack_directory) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(fmu_path, ec)) throw FmuError(fmu_path + ": no such file");
   unpack_fmu(fmu_path, unpack_directory);
   auto lib = std::make_shared<FmuLibrary>();
   lib->directory = std::filesystem::absolute(unpack_directory).string();
@@ -69,6 +67,7 @@ std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
   lib->description = parse_model_description(read_file(xml_path), fmu_path);
   const std::string so =
       lib->directory + "/binaries/linux64/" + lib->description.model_identifier + ".so";
+  std::error_code ec;
   if (!std::filesystem::is_regular_file(so, ec))
     throw FmuError(fmu_path + ": no linux64 binary (binaries/linux64/" +
                    lib->description.model_identifier + ".so)");
@@ -100,6 +99,33 @@ const ModelDescription& description_of(const FmuLibrary& library) {
   return library.description;
 }
 
+plant::ModelLayout fmu_layout(const ModelDescription& d) {
+  plant::ModelLayout layout;
+  const auto unit = [](const std::string& u) { return u.empty() ? std::string("1") : u; };
+  for (std::size_t i : d.states) {
+    const FmuVariable& v = d.variables[i];
+    plant::StateInfo s;
+    s.name = v.name;
+    s.unit = unit(v.unit);
+    s.min = v.min;
+    s.max = v.max;
+    s.initial = std::isnan(v.start) ? 0.0 : v.start;
+    s.initial_std = 0.1 * std::max(std::abs(s.initial), std::abs(v.nominal));
+    s.abs_tol = 1e-6 * std::abs(v.nominal);
+    s.description = v.description;
+    layout.states.push_back(s);
+  }
+  for (std::size_t i : d.inputs) {
+    const FmuVariable& v = d.variables[i];
+    layout.inputs.push_back({v.name, unit(v.unit), v.min, v.max, v.start, v.description});
+  }
+  for (std::size_t i : d.outputs) {
+    const FmuVariable& v = d.variables[i];
+    layout.outputs.push_back({v.name, unit(v.unit), v.min, v.max, plant::kRequired, v.description});
+  }
+  return layout;
+}
+
 void FmuModel::logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                       fmi2String category, fmi2String message, ...) {
   if (env == nullptr || status < fmi2Error) return;  // warnings and debug output are dropped
@@ -117,32 +143,16 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
     : lib_(std::move(library)), options_(std::move(options)) {
   const ModelDescription& d = lib_->description;
   const auto& vars = d.variables;
+  layout_ = fmu_layout(d);
   for (std::size_t k = 0; k < d.states.size(); ++k) {
-    const FmuVariable& v = vars[d.states[k]];
-    plant::StateInfo s;
-    s.name = v.name;
-    s.unit = v.unit;
-    s.min = v.min;
-    s.max = v.max;
-    s.initial = std::isnan(v.start) ? 0.0 : v.start;
-    s.initial_std = 0.1 * std::max(std::abs(s.initial), std::abs(v.nominal));
-    s.abs_tol = 1e-6 * std::abs(v.nominal);
-    s.description = v.description;
-    layout_.states.push_back(s);
-    state_refs_.push_back(v.ref);
+    state_refs_.push_back(vars[d.states[k]].ref);
     derivative_refs_.push_back(vars[d.derivatives[k]].ref);
-    nominal_.push_back(std::abs(v.nominal));
+    nominal_.push_back(std::abs(vars[d.states[k]].nominal));
   }
-  for (std::size_t i : d.inputs) {
-    const FmuVariable& v = vars[i];
-    layout_.inputs.push_back({v.name, v.unit, v.min, v.max, v.start, v.description});
-    input_refs_.push_back(v.ref);
-  }
-  for (std::size_t i : d.outputs) {
-    const FmuVariable& v = vars[i];
-    layout_.outputs.push_back({v.name, v.unit, v.min, v.max, plant::kRequired, v.description});
-    output_refs_.push_back(v.ref);
-  }
+  for (std::size_t i : d.inputs)
+    input_refs_.push_back(vars[i].ref);
+  for (std::size_t i : d.outputs)
+    output_refs_.push_back(vars[i].ref);
   std::vector<fmi2ValueReference> param_refs;
   std::vector<double> param_values;
   for (const auto& [name, value] : options_.parameters) {

@@ -49,6 +49,9 @@ std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
 
 const ModelDescription& description_of(const FmuLibrary& library);
 
+// The layout an FMU's description gives (above; a variable without a unit has unit "1").
+plant::ModelLayout fmu_layout(const ModelDescription& description);
+
 class FmuModel final : public plant::ContinuousModel {
  public:
   // Instantiates and initialises the FMU. Throws FmuError (unknown parameter, refused instance).

@@ -27,7 +27,7 @@ void check_same_signals(const std::vector<plant::SignalInfo>& a,
   for (std::size_t i = 0; i < a.size(); ++i) {
     INFO(b[i].name);
     CHECK(a[i].name == b[i].name);
-    CHECK(a[i].unit == (b[i].unit == "1" ? "" : b[i].unit));
+    CHECK(a[i].unit == b[i].unit);
     CHECK(a[i].min == b[i].min);
     CHECK(a[i].max == b[i].max);
   }
@@ -40,6 +40,7 @@ void check_same_layout(const plant::ContinuousModel& fmu, const plant::Continuou
   for (std::size_t i = 0; i < a.states.size(); ++i) {
     INFO(b.states[i].name);
     CHECK(a.states[i].name == b.states[i].name);
+    CHECK(a.states[i].unit == b.states[i].unit);
     CHECK(a.states[i].min == b.states[i].min);
     CHECK(a.states[i].max == b.states[i].max);
     CHECK(a.states[i].initial == b.states[i].initial);

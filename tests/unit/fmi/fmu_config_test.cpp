@@ -1,0 +1,96 @@
+// A unit whose model is an FMU (model.type "fmu"): the configuration is checked against the
+// FMU's own description (parameters, states, inputs, outputs), and every error names its JSON
+// pointer. Uses the exported zone FMU and the demo configuration.
+#include <catch2/catch.hpp>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "config/load.hpp"
+#include "io/fmi/import/fmu_schema.hpp"
+#include "plant_models/catalog.hpp"
+#include "tests/unit/config/config_test_support.hpp"
+
+using namespace hvac_twin;
+using config::test::describe;
+using config::test::has_error;
+
+namespace {
+
+std::string fmu_path(const std::string& model) {
+  return std::string(HVAC_TWIN_BINARY_DIR) + "/fmu/" + model + ".fmu";
+}
+
+config::LoadResult load_with_fmu(const nlohmann::json& document) {
+  config::ModelCatalog catalog = plant::model_schemas();
+  catalog.push_back(fmi::fmu_schema());
+  return config::load_config_text(document.dump(), catalog);
+}
+
+// The demo configuration with its zone model taken from `file`.
+nlohmann::json demo_on(const std::string& file) {
+  auto c = config::test::demo_json();
+  auto& model = c["units"][0]["model"];
+  model["type"] = "fmu";
+  model["fmu"] = file;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("the demo configuration runs on the zone FMU: its parameters, states and signals",
+          "[fmi][config]") {
+  const auto r = load_with_fmu(demo_on(fmu_path("zone_rc")));
+  INFO(describe(r));
+  REQUIRE(r.config);
+  const auto& model = r.config->units[0].model;
+  CHECK(model.type == "fmu");
+  CHECK(model.file == fmu_path("zone_rc"));
+  CHECK(model.parameters.at("C_air") == 2.0e6);  // the demo's parameters are the FMU's
+  // The catalog without "fmu" does not know the type (the daemon's includes it).
+  CHECK(has_error(config::test::load_json(demo_on(fmu_path("zone_rc"))), "/units/0/model/type",
+                  {"unknown model type \"fmu\""}));
+}
+
+TEST_CASE("an FMU model's file errors name /units/N/model/fmu", "[fmi][config]") {
+  auto c = demo_on(fmu_path("zone_rc"));
+  c["units"][0]["model"].erase("fmu");
+  auto r = load_with_fmu(c);
+  CHECK(has_error(r, "/units/0/model", {"missing required field \"fmu\""}));
+
+  r = load_with_fmu(demo_on("fmu/zone_rc.fmu"));
+  CHECK(has_error(r, "/units/0/model/fmu",
+                  {"expected the FMU's absolute path; got \"fmu/zone_rc.fmu\""}));
+
+  r = load_with_fmu(demo_on("/nonexistent/zone.fmu"));
+  CHECK(has_error(r, "/units/0/model/fmu", {"/nonexistent/zone.fmu: no such file"}));
+
+  r = load_with_fmu(demo_on(std::string(HVAC_TWIN_SOURCE_DIR) + "/config/demo.json"));
+  CHECK(has_error(r, "/units/0/model/fmu", {"cannot open as an FMU (zip archive)"}));
+
+  c = config::test::demo_json();
+  c["units"][0]["model"]["fmu"] = fmu_path("zone_rc");
+  r = load_with_fmu(c);
+  CHECK(has_error(r, "/units/0/model/fmu", {"model type \"zone_rc\" is built in"}));
+}
+
+TEST_CASE("a configuration is checked against the FMU's own variables", "[fmi][config]") {
+  auto c = demo_on(fmu_path("zone_rc"));
+  c["units"][0]["model"]["parameters"]["C_airr"] = 1e6;
+  c["units"][0]["model"]["parameters"]["C_air"] = -5.0;
+  auto r = load_with_fmu(c);
+  INFO(describe(r));
+  CHECK(has_error(r, "/units/0/model/parameters/C_airr",
+                  {"unknown parameter \"C_airr\"", "did you mean \"C_air\""}));
+  CHECK(has_error(r, "/units/0/model/parameters/C_air", {"expected a number"}));
+
+  // The heat pump's FMU has no heat_pump_heat input: the demo's point is refused by name, with
+  // the FMU's inputs listed, as for a built-in model.
+  c = demo_on(fmu_path("heat_pump_r32"));
+  c["units"][0]["model"].erase("parameters");
+  r = load_with_fmu(c);
+  INFO(describe(r));
+  CHECK_FALSE(r.config);
+  CHECK(has_error(r, "/units/0/points/2/signal",
+                  {"unknown model input \"heat_pump_heat\"", "\"compressor_speed\""}));
+}
