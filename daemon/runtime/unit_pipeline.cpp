@@ -415,7 +415,18 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
       if (st == est::StepStatus::kModelError) flags |= dds::kFlagPredictOnly;
       model_time_s_ += dt;
       failed_predictions_ = st == est::StepStatus::kModelError ? failed_predictions_ + 1 : 0;
-      if (failed_predictions_ >= kRestartAfterFailedPredictions) {
+      const char* model_failure = model_->failure();
+      if (model_failure != nullptr && !model_failed_) {
+        // A model that failed for good (an FMU's fmi2Error): no restart brings it back. The
+        // unit keeps cycling (its points, health and the other units go on); its estimates are
+        // NOT_READY from now on.
+        model_failed_ = true;
+        log_->error(
+            "unit {}: the model failed for good: {}; the unit publishes no estimates until the "
+            "daemon restarts",
+            unit_.id, model_failure);
+      }
+      if (failed_predictions_ >= kRestartAfterFailedPredictions && !model_failed_) {
         // Lost: the model cannot integrate from the estimate (kept by every failed prediction),
         // and no update brought it back. Start again from the measured conditions.
         ++restarts_;

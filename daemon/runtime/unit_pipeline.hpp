@@ -208,6 +208,7 @@ class UnitPipeline {
   const est::StatePhases* phases_ = nullptr;
   double phases_from_s_ = 0.0;  // the model time the phases count from [s]
   int failed_predictions_ = 0;  // in a row
+  bool model_failed_ = false;   // the model said it cannot be evaluated again (failure())
   // A filter whose predictions failed this many cycles in a row is lost (each failure keeps the
   // estimate the model cannot integrate from) and restarts from the measured conditions. Seen
   // on the heat pump before the parameter hold: 40 failed cycles in a row from the third.

@@ -62,6 +62,11 @@ class ContinuousModel {
     return false;
   }
 
+  // Non-null once the model can never be evaluated again (an FMU that returned fmi2Error or
+  // fmi2Fatal: every call is kModelFatal from then on): what it said. Built-in models never fail
+  // for good.
+  [[nodiscard]] virtual const char* failure() const { return nullptr; }
+
   [[nodiscard]] virtual std::unique_ptr<ContinuousModel> clone() const = 0;
 };
 

@@ -8,6 +8,8 @@
 
 #include "tests/integration/stack.hpp"
 #include "tests/integration/truth.hpp"
+#include "tests/support/edited_fmu.hpp"
+#include "tests/support/scratch_dir.hpp"
 
 using namespace hvac_twin::test;
 using namespace std::chrono_literals;
@@ -51,4 +53,40 @@ TEST_CASE("the daemon estimates the zone through the zone model exported as an F
   CHECK(good > 60);
   REQUIRE(n > 40);
   CHECK(sum_abs / n < 0.5);
+}
+
+TEST_CASE("an FMU that returns fmi2Error stops its unit's estimates and nothing else",
+          "[integration][zone][fmi]") {
+  // The zone FMU with its first output mapped to a value reference the binary does not know:
+  // the first update's fmi2GetReal returns fmi2Error. In-process isolation: the daemon reports
+  // the FMU's message once, publishes no estimates for the unit, and keeps cycling (it neither
+  // crashes nor restarts the estimator in a loop).
+  StackOptions o;
+  o.domain_id = 88;
+  o.seed = 3;
+  const ScratchDir dir("fmu-broken");
+  const std::string fmu = dir / "broken.fmu";
+  write_edited_zone_fmu(fmu, zone_fmu_first_output_ref(), "valueReference=\"9999\"");
+  o.daemon_customize = [&fmu](nlohmann::json& c) {
+    c["units"][0]["model"]["type"] = "fmu";
+    c["units"][0]["model"]["fmu"] = fmu;
+  };
+  Stack stack("fmu-broken", o);
+  const auto rc = stack.run_for(2.0, {"--topics", "virtual_sensor,estimator_health"}, 5s);
+  const std::string log = stack.daemon().err();
+  INFO("daemon stderr:\n" << log);
+  REQUIRE(rc == 0);
+  const auto failed = log.find("the model failed for good");
+  REQUIRE(failed != std::string::npos);
+  CHECK(log.find("the model failed for good", failed + 1) == std::string::npos);
+  CHECK_THAT(log, Catch::Contains("no variable has value reference 9999"));
+  CHECK_THAT(log, !Catch::Contains("the estimator restarts"));
+  int health = 0, good = 0;
+  for (const auto& s : stack.samples()) {
+    if (s["topic"] == "estimator_health") ++health;
+    if (s["topic"] == "virtual_sensor" && s["quality"] == "GOOD") ++good;
+  }
+  INFO("estimator_health samples " << health << ", GOOD estimates " << good);
+  CHECK(health > 30);  // the unit kept cycling (2 h at a 120 s period: 60 cycles)
+  CHECK(good == 0);
 }

@@ -68,10 +68,12 @@ class FmuModel final : public plant::ContinuousModel {
   int output_jacobian(std::span<const double> x, std::span<const double> u, std::span<double> y,
                       std::span<double> jac) const override;
   [[nodiscard]] std::unique_ptr<plant::ContinuousModel> clone() const override;
+  [[nodiscard]] const char* failure() const override {
+    return failed_ ? last_error_.c_str() : nullptr;
+  }
 
   [[nodiscard]] JacobianMethod jacobian_method() const { return method_; }
   [[nodiscard]] const std::string& last_error() const { return last_error_; }
-  [[nodiscard]] bool failed() const { return failed_; }
 
  private:
   static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,

@@ -1,7 +1,5 @@
 // What the FMU import refuses, and how it says so: each error names the file and what is wrong.
 // The FMUs here are the exported zone model's, repacked with one thing changed.
-#include <zip.h>
-
 #include <catch2/catch.hpp>
 #include <fstream>
 #include <sstream>
@@ -11,50 +9,25 @@
 
 #include "io/fmi/import/fmu_archive.hpp"
 #include "io/fmi/import/fmu_model.hpp"
+#include "tests/support/edited_fmu.hpp"
 #include "tests/support/scratch_dir.hpp"
 
 using namespace hvac_twin;
 
 namespace {
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  REQUIRE(in);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-const std::string kStage = std::string(HVAC_TWIN_BINARY_DIR) + "/fmu/zone_rc/";
-
+using test::write_zip;
 std::string description() {
-  return read_file(kStage + "modelDescription.xml");
+  return test::zone_fmu_description();
 }
 std::string binary() {
-  return read_file(kStage + "binaries/linux64/zone_rc.so");
-}
-
-// Writes a zip archive of (name, content) entries.
-void write_zip(const std::string& path, const std::vector<std::pair<std::string, std::string>>& e) {
-  int error = 0;
-  zip_t* z = zip_open(path.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &error);
-  REQUIRE(z != nullptr);
-  for (const auto& [name, content] : e) {
-    zip_source_t* src = zip_source_buffer(z, content.data(), content.size(), 0);
-    REQUIRE(src != nullptr);
-    REQUIRE(zip_file_add(z, name.c_str(), src, ZIP_FL_ENC_UTF_8) >= 0);
-  }
-  REQUIRE(zip_close(z) == 0);
+  return test::zone_fmu_binary();
 }
 
 // The zone FMU with `from` replaced by `to` in its description (which must contain it).
 std::string edited(const test::ScratchDir& dir, const std::string& from, const std::string& to) {
-  std::string xml = description();
-  const auto at = xml.find(from);
-  REQUIRE(at != std::string::npos);
-  xml.replace(at, from.size(), to);
   const std::string path = dir / "edited.fmu";
-  write_zip(path, {{"modelDescription.xml", xml}, {"binaries/linux64/zone_rc.so", binary()}});
+  test::write_edited_zone_fmu(path, from, to);
   return path;
 }
 
@@ -135,20 +108,17 @@ TEST_CASE("an FMU that returns fmi2Error fails the model for good and says why",
   const test::ScratchDir dir("fmu-error");
   // The description maps the first output to a value reference the binary does not have: the
   // binary answers fmi2GetReal with fmi2Error.
-  const std::string xml = description();
-  const auto output = xml.find("causality=\"output\"");
-  const auto ref_at = xml.rfind("valueReference=\"", output);
-  const auto ref_end = xml.find('"', ref_at + 16);
-  const std::string old_ref = xml.substr(ref_at, ref_end + 1 - ref_at);
-  const std::string path = edited(dir, old_ref, "valueReference=\"9999\"");
+  const std::string path =
+      edited(dir, test::zone_fmu_first_output_ref(), "valueReference=\"9999\"");
   // <Outputs> names the variable by index, not by reference: the edit keeps the structure valid.
   const auto lib = fmi::load_fmu(path, dir / "unpacked");
   const fmi::FmuModel model(lib, {});
   const std::vector<double> x{20.0, 20.0, 300.0}, u{0.0, 10.0};
   std::vector<double> xdot(3), y(model.num_outputs());
   CHECK(model.rhs(x, u, xdot) == plant::kModelOk);
+  CHECK(model.failure() == nullptr);
   CHECK(model.outputs(x, u, y) == plant::kModelFatal);
-  CHECK(model.failed());
-  CHECK_THAT(model.last_error(), Catch::Contains("no variable has value reference 9999"));
+  REQUIRE(model.failure() != nullptr);
+  CHECK_THAT(std::string(model.failure()), Catch::Contains("no variable has value reference 9999"));
   CHECK(model.rhs(x, u, xdot) == plant::kModelFatal);  // not called again
 }
