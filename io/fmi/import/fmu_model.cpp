@@ -99,7 +99,17 @@ const ModelDescription& description_of(const FmuLibrary& library) {
   return library.description;
 }
 
-plant::ModelLayout fmu_layout(const ModelDescription& d) {
+std::vector<std::size_t> fmu_disturbances(const ModelDescription& d,
+                                          const plant::ParameterMap& params) {
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < d.inputs.size(); ++k) {
+    const auto it = params.find(kAugmentPrefix + d.variables[d.inputs[k]].name);
+    if (it != params.end() && it->second != 0.0) out.push_back(k);
+  }
+  return out;
+}
+
+plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterMap& params) {
   plant::ModelLayout layout;
   const auto unit = [](const std::string& u) { return u.empty() ? std::string("1") : u; };
   for (std::size_t i : d.states) {
@@ -118,6 +128,21 @@ plant::ModelLayout fmu_layout(const ModelDescription& d) {
   for (std::size_t i : d.inputs) {
     const FmuVariable& v = d.variables[i];
     layout.inputs.push_back({v.name, unit(v.unit), v.min, v.max, v.start, v.description});
+  }
+  for (std::size_t k : fmu_disturbances(d, params)) {
+    const FmuVariable& v = d.variables[d.inputs[k]];
+    const double width = v.max - v.min;
+    const bool bounded = std::isfinite(width) && width > 0.0;
+    plant::StateInfo s;
+    s.name = v.name + kDisturbanceSuffix;
+    s.unit = unit(v.unit);
+    s.min = bounded ? -width : -std::numeric_limits<double>::infinity();
+    s.max = bounded ? width : std::numeric_limits<double>::infinity();
+    s.initial = 0.0;
+    s.initial_std = bounded ? 0.1 * width : 1.0;
+    s.augmented = true;
+    s.description = "unknown additive disturbance of input " + v.name + " (random walk)";
+    layout.states.push_back(s);
   }
   for (std::size_t i : d.outputs) {
     const FmuVariable& v = d.variables[i];
@@ -143,7 +168,7 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
     : lib_(std::move(library)), options_(std::move(options)) {
   const ModelDescription& d = lib_->description;
   const auto& vars = d.variables;
-  layout_ = fmu_layout(d);
+  layout_ = fmu_layout(d, options_.parameters);
   for (std::size_t k = 0; k < d.states.size(); ++k) {
     state_refs_.push_back(vars[d.states[k]].ref);
     derivative_refs_.push_back(vars[d.derivatives[k]].ref);
@@ -151,11 +176,21 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
   }
   for (std::size_t i : d.inputs)
     input_refs_.push_back(vars[i].ref);
+  disturbed_ = fmu_disturbances(d, options_.parameters);
+  nominal_.resize(layout_.states.size(), 1.0);
+  u_effective_.resize(input_refs_.size());
   for (std::size_t i : d.outputs)
     output_refs_.push_back(vars[i].ref);
   std::vector<fmi2ValueReference> param_refs;
   std::vector<double> param_values;
   for (const auto& [name, value] : options_.parameters) {
+    if (name.rfind(kAugmentPrefix, 0) == 0) {
+      const FmuVariable* input = d.find(name.substr(std::string(kAugmentPrefix).size()));
+      if (input == nullptr || input->causality != "input" || (value != 0.0 && value != 1.0))
+        throw FmuError("FMU " + d.model_name + ": \"" + name +
+                       "\" is not 0 or 1 for an input of the model");
+      continue;  // not the FMU's: a disturbance state of ours
+    }
     const FmuVariable* v = d.find(name);
     if (v == nullptr || v->causality != "parameter" || v->type != "Real")
       throw FmuError("FMU " + d.model_name + ": \"" + name + "\" is not a Real parameter");
@@ -223,11 +258,16 @@ int FmuModel::status(fmi2Status s, const char* call) const {
 
 int FmuModel::set(std::span<const double> x, std::span<const double> u) const {
   if (failed_) return plant::kModelFatal;
-  if (x.size() != state_refs_.size() || u.size() != input_refs_.size()) return plant::kModelFatal;
-  int s = status(lib_->set_states(component_, x.data(), x.size()), "fmi2SetContinuousStates");
-  if (s == plant::kModelOk && !u.empty())
-    s = status(lib_->set_real(component_, input_refs_.data(), u.size(), u.data()), "fmi2SetReal");
-  return s;
+  const std::size_t nf = state_refs_.size();
+  if (x.size() != layout_.states.size() || u.size() != input_refs_.size())
+    return plant::kModelFatal;
+  int s = status(lib_->set_states(component_, x.data(), nf), "fmi2SetContinuousStates");
+  if (s != plant::kModelOk || u.empty()) return s;
+  std::copy(u.begin(), u.end(), u_effective_.begin());
+  for (std::size_t k = 0; k < disturbed_.size(); ++k)
+    u_effective_[disturbed_[k]] += x[nf + k];
+  return status(lib_->set_real(component_, input_refs_.data(), u.size(), u_effective_.data()),
+                "fmi2SetReal");
 }
 
 int FmuModel::eval(bool outputs, std::span<const double> x, std::span<const double> u,
@@ -236,7 +276,9 @@ int FmuModel::eval(bool outputs, std::span<const double> x, std::span<const doub
   if (outputs)
     return status(lib_->get_real(component_, output_refs_.data(), output_refs_.size(), out.data()),
                   "fmi2GetReal");
-  return status(lib_->get_derivatives(component_, out.data(), out.size()), "fmi2GetDerivatives");
+  const std::size_t nf = state_refs_.size();
+  std::fill(out.begin() + static_cast<std::ptrdiff_t>(nf), out.end(), 0.0);  // disturbances
+  return status(lib_->get_derivatives(component_, out.data(), nf), "fmi2GetDerivatives");
 }
 
 int FmuModel::rhs(std::span<const double> x, std::span<const double> u,
@@ -261,8 +303,9 @@ int FmuModel::output_jacobian(std::span<const double> x, std::span<const double>
 
 int FmuModel::jacobian(bool outputs, std::span<const double> x, std::span<const double> u,
                        std::span<double> value, std::span<double> jac) const {
-  const std::size_t n = state_refs_.size();
+  const std::size_t n = layout_.states.size(), nf = state_refs_.size();
   const std::size_t rows = outputs ? output_refs_.size() : n;
+  const std::size_t fmu_rows = outputs ? rows : nf;  // below them: the disturbances' zero rows
   const std::vector<fmi2ValueReference>& unknowns = outputs ? output_refs_ : derivative_refs_;
   if (!value.empty())
     if (const int s = eval(outputs, x, u, value); s != plant::kModelOk) return s;
@@ -271,10 +314,14 @@ int FmuModel::jacobian(bool outputs, std::span<const double> x, std::span<const 
       if (const int s = set(x, u); s != plant::kModelOk) return s;
     const double one = 1.0;
     for (std::size_t j = 0; j < n; ++j) {
-      const int s = status(lib_->directional(component_, unknowns.data(), rows, &state_refs_[j], 1,
-                                             &one, jac.data() + j * rows),
-                           "fmi2GetDirectionalDerivative");
+      // A disturbance moves its input: the column is the derivative with respect to the input.
+      const fmi2ValueReference* known = j < nf ? &state_refs_[j] : &input_refs_[disturbed_[j - nf]];
+      double* column = jac.data() + j * rows;
+      const int s =
+          status(lib_->directional(component_, unknowns.data(), fmu_rows, known, 1, &one, column),
+                 "fmi2GetDirectionalDerivative");
       if (s != plant::kModelOk) return s;
+      std::fill(column + fmu_rows, column + rows, 0.0);
     }
     return plant::kModelOk;
   }

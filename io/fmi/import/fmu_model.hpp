@@ -8,6 +8,7 @@
 //   inputs       causality "input" (start: the default when no point provides one)
 //   outputs      causality "output", in <Outputs> order
 //   parameters   causality "parameter" (Real), set before initialisation from a ParameterMap
+//   disturbances augment_<input> = 1: a random-walk state added to that input (below)
 //
 // The model is autonomous (ContinuousModel has no time): an FMU whose equations read `time`
 // sees 0. Jacobians: fmi2GetDirectionalDerivative, one state direction per call, when the FMU
@@ -49,8 +50,21 @@ std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
 
 const ModelDescription& description_of(const FmuLibrary& library);
 
-// The layout an FMU's description gives (above; a variable without a unit has unit "1").
-plant::ModelLayout fmu_layout(const ModelDescription& description);
+// Input disturbances: parameter "augment_<input>" = 1 (not the FMU's own; the schema offers one
+// per input) appends a random-walk state "<input>_disturbance" added to that input, as the
+// built-in models' augment_ parameters append theirs (FMI 2.0 fixes an FMU's parameters at its
+// initialisation, so an unknown the filter should track is an input or one of the FMU's states).
+inline constexpr const char* kAugmentPrefix = "augment_";
+inline constexpr const char* kDisturbanceSuffix = "_disturbance";
+
+// The indices (into the description's inputs) `params` augments, in input order.
+std::vector<std::size_t> fmu_disturbances(const ModelDescription& description,
+                                          const plant::ParameterMap& params);
+
+// The layout an FMU's description gives with `params` (above; a variable without a unit has
+// unit "1"): the FMU's states, then the disturbances.
+plant::ModelLayout fmu_layout(const ModelDescription& description,
+                              const plant::ParameterMap& params);
 
 class FmuModel final : public plant::ContinuousModel {
  public:
@@ -90,7 +104,9 @@ class FmuModel final : public plant::ContinuousModel {
   plant::ModelLayout layout_;
   JacobianMethod method_;
   std::vector<fmi2ValueReference> state_refs_, derivative_refs_, input_refs_, output_refs_;
-  std::vector<double> nominal_;
+  std::vector<double> nominal_;              // per state, the disturbances' 1
+  std::vector<std::size_t> disturbed_;       // per disturbance state, its input
+  mutable std::vector<double> u_effective_;  // the inputs plus their disturbances
   fmi2CallbackFunctions callbacks_{};
   fmi2Component component_ = nullptr;
   mutable std::vector<double> x_try_, f_plus_, f_minus_;

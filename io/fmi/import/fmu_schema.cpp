@@ -23,7 +23,13 @@ plant::ModelSchema fmu_schema() {
                               std::isnan(v.start) ? 0.0 : v.start, v.min, v.max, false,
                               v.description});
     }
-    s.layout = [layout = fmu_layout(d)](const plant::ParameterMap&) { return layout; };
+    for (std::size_t i : d.inputs) {
+      const std::string& input = d.variables[i].name;
+      s.parameters.push_back({kAugmentPrefix + input, "1", 0.0, 0.0, 1.0, true,
+                              "1: estimate an unknown additive disturbance of input " + input +
+                                  " as the random-walk state " + input + kDisturbanceSuffix});
+    }
+    s.layout = [d](const plant::ParameterMap& params) { return fmu_layout(d, params); };
     return s;
   };
   return schema;

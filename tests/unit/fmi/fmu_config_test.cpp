@@ -94,3 +94,20 @@ TEST_CASE("a configuration is checked against the FMU's own variables", "[fmi][c
   CHECK(has_error(r, "/units/0/points/2/signal",
                   {"unknown model input \"heat_pump_heat\"", "\"compressor_speed\""}));
 }
+
+TEST_CASE("augment_<input> adds the FMU input's disturbance state to what the estimator may set",
+          "[fmi][config]") {
+  auto c = demo_on(fmu_path("zone_rc"));
+  c["units"][0]["estimator"]["process_noise"]["heat_pump_heat_disturbance"] = 2.0;
+  auto r = load_with_fmu(c);
+  CHECK(has_error(r, "/units/0/estimator/process_noise/heat_pump_heat_disturbance",
+                  {"heat_pump_heat_disturbance"}));
+  c["units"][0]["model"]["parameters"]["augment_heat_pump_heat"] = 1;
+  r = load_with_fmu(c);
+  INFO(describe(r));
+  REQUIRE(r.config);
+  CHECK(r.config->units[0].model.parameters.at("augment_heat_pump_heat") == 1.0);
+  c["units"][0]["model"]["parameters"]["augment_heat_pump_heat"] = 0.5;
+  CHECK(has_error(load_with_fmu(c), "/units/0/model/parameters/augment_heat_pump_heat",
+                  {"expected an integer"}));
+}

@@ -205,3 +205,43 @@ TEST_CASE("central differences on the FMU agree with its directional derivatives
     CHECK(worst < 1e-4);
   }
 }
+
+TEST_CASE("an input disturbance of an FMU is a random-walk state added to its input", "[fmi]") {
+  const test::ScratchDir dir("fmu-disturbance");
+  const auto lib = fmi::load_fmu(fmu_path("zone_rc"), dir / "unpacked");
+  const auto ref = plant::create_model("zone_rc", {});
+  for (const bool fd : {false, true}) {
+    INFO((fd ? "central differences" : "directional derivatives"));
+    const fmi::FmuModel fmu(
+        lib, {.parameters = {{"augment_heat_pump_heat", 1.0}}, .finite_differences = fd});
+    const auto& states = fmu.layout().states;
+    REQUIRE(states.size() == 4);
+    CHECK(states[3].name == "heat_pump_heat_disturbance");
+    CHECK(states[3].unit == "W");
+    CHECK(states[3].augmented);
+    CHECK(states[3].initial == 0.0);
+
+    const std::vector<double> x{24.0, 22.0, 500.0, -800.0}, u{-3000.0, 31.0};
+    const std::vector<double> x_ref{24.0, 22.0, 500.0}, u_moved{-3800.0, 31.0};
+    std::vector<double> f(4), f_ref(3), y(4), y_ref(4), J(16), H(16);
+    REQUIRE(fmu.rhs_jacobian(x, u, f, J) == 0);
+    REQUIRE(fmu.output_jacobian(x, u, y, H) == 0);
+    REQUIRE(ref->rhs(x_ref, u_moved, f_ref) == 0);
+    REQUIRE(ref->outputs(x_ref, u_moved, y_ref) == 0);
+    for (std::size_t i = 0; i < 3; ++i)
+      CHECK(f[i] == f_ref[i]);
+    CHECK(f[3] == 0.0);
+    CHECK(y == y_ref);
+    // The disturbance's column: d f / d heat_pump_heat, hp_fraction_air / C_air for the air
+    // (1 / 2e6 per W) and nothing for the mass and the gains; its row: zero (d' = 0).
+    CHECK(J[3 * 4 + 0] == Approx(1.0 / 2.0e6).epsilon(1e-6));
+    CHECK(std::abs(J[3 * 4 + 1]) < 1e-15);
+    CHECK(J[3 * 4 + 2] == 0.0);
+    for (std::size_t c = 0; c < 4; ++c)
+      CHECK(J[c * 4 + 3] == 0.0);
+  }
+  CHECK_THROWS_WITH(fmi::FmuModel(lib, {.parameters = {{"augment_heat_pump_heat", 2.0}}}),
+                    Catch::Contains("\"augment_heat_pump_heat\" is not 0 or 1"));
+  CHECK_THROWS_WITH(fmi::FmuModel(lib, {.parameters = {{"augment_T_air", 1.0}}}),
+                    Catch::Contains("\"augment_T_air\" is not 0 or 1 for an input"));
+}
