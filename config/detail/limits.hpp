@@ -31,6 +31,12 @@ inline constexpr double kMinTickS = 1e-9;
 inline constexpr double kMaxWallPeriodS = 86400.0;
 inline constexpr std::size_t kMaxMeasuredPoints = 64;  // per unit
 
+// A model's states and outputs (an FMU's are the file's): the filters' matrices are dense, n x n
+// and m x n doubles (at 1000 states each n x n matrix is 8 MB; the heat pump at its finest
+// 40 cells has 169 states).
+inline constexpr std::size_t kMaxModelStates = 1000;
+inline constexpr std::size_t kMaxModelOutputs = 1000;
+
 // Upper bounds of initial_std (the state's range) and process_noise (the range over
 // sqrt(kProcessNoiseSpanS): a random walk spanning it in an hour); kMaxUnboundedStd for both
 // when the state has no finite range.

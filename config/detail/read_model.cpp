@@ -183,6 +183,15 @@ ModelSection read_model(const Ref& ref, Errors& errors, const ModelCatalog& mode
     errors.add(*at.node, at.pointer,
                "model " + quote(out.schema->type) + " rejected these parameters: " + e.what());
   }
+  if (out.layout && (out.layout->states.size() > kMaxModelStates ||
+                     out.layout->outputs.size() > kMaxModelOutputs)) {
+    errors.add(*ref.node, ref.pointer,
+               "the model has " + std::to_string(out.layout->states.size()) + " states and " +
+                   std::to_string(out.layout->outputs.size()) + " outputs; at most " +
+                   std::to_string(kMaxModelStates) + " and " + std::to_string(kMaxModelOutputs) +
+                   " (the filters' matrices are dense)");
+    out.layout.reset();
+  }
   return out;
 }
 

@@ -143,6 +143,10 @@ int daemon_main(int argc, char** argv, CycleHooks* hooks) {
   Daemon daemon(std::move(config), log, hooks);
   try {
     daemon.start();
+  } catch (const UnitModelError& e) {
+    // Valid on paper, refused by the model file itself (an FMU's binary): a configuration error.
+    log->critical("start-up failed: {}: {}: {}", config_path, e.pointer(), e.what());
+    return hvac_twin::config::kExitConfigError;
   } catch (const std::exception& e) {
     log->critical("start-up failed: {}", e.what());
     return 1;

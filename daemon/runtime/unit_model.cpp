@@ -21,20 +21,25 @@ const config::ModelCatalog& model_catalog() {
   return catalog;
 }
 
-UnitModel make_unit_model(const config::ModelConfig& model, const std::string& fmu_directory) {
+UnitModel make_unit_model(const config::ModelConfig& model, const std::string& fmu_directory,
+                          const std::string& pointer) {
   if (model.type != fmi::kFmuModelType)
     return {plant::create_model(model.type, model.parameters), "built-in " + model.type};
-  const auto library = fmi::load_fmu(model.file, fmu_directory);
-  auto fmu =
-      std::make_unique<fmi::FmuModel>(library, fmi::FmuOptions{.parameters = model.parameters});
-  const bool exact = fmu->jacobian_method() == fmi::JacobianMethod::kDirectionalDerivative;
-  std::string origin = "FMU " + model.file + " (model " + fmi::description_of(*library).model_name +
-                       ", unpacked in " + fmu_directory + "; Jacobians by " +
-                       (exact ? "fmi2GetDirectionalDerivative"
-                              : "central differences: the FMU provides no directional "
-                                "derivatives") +
-                       ")";
-  return {std::move(fmu), std::move(origin)};
+  try {
+    const auto library = fmi::load_fmu(model.file, fmu_directory);
+    auto fmu =
+        std::make_unique<fmi::FmuModel>(library, fmi::FmuOptions{.parameters = model.parameters});
+    const bool exact = fmu->jacobian_method() == fmi::JacobianMethod::kDirectionalDerivative;
+    std::string origin =
+        "FMU " + model.file + " (model " + fmi::description_of(*library).model_name +
+        ", unpacked in " + fmu_directory + "; Jacobians by " +
+        (exact ? "fmi2GetDirectionalDerivative"
+               : "central differences: the FMU provides no directional derivatives") +
+        ")";
+    return {std::move(fmu), std::move(origin)};
+  } catch (const fmi::FmuError& e) {
+    throw UnitModelError(pointer + "/fmu", e.what());
+  }
 }
 
 PrivateDirectory::PrivateDirectory() {

@@ -5,7 +5,9 @@
 #pragma once
 
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "config/config.hpp"
 #include "config/load.hpp"
@@ -16,14 +18,28 @@ namespace hvac_twin::runtime {
 // plant::model_schemas() and "fmu".
 const config::ModelCatalog& model_catalog();
 
+// A unit's model file (an FMU) that passed validation but cannot be loaded or instantiated (its
+// binary refuses the description's GUID, dlopen fails, ...): a configuration error, at `pointer`.
+class UnitModelError : public std::runtime_error {
+ public:
+  UnitModelError(std::string pointer, const std::string& what)
+      : std::runtime_error(what), pointer_(std::move(pointer)) {}
+  [[nodiscard]] const std::string& pointer() const { return pointer_; }
+
+ private:
+  std::string pointer_;
+};
+
 struct UnitModel {
   std::unique_ptr<plant::ContinuousModel> model;
   std::string origin;  // for the log: "built-in zone_rc", "FMU <path> (...Jacobians by ...)"
 };
 
 // `fmu_directory`: where an FMU is unpacked (the daemon's <state_directory>/fmu/<unit>; it must
-// be missing, empty or an earlier unpack). Throws std::runtime_error saying what failed.
-UnitModel make_unit_model(const config::ModelConfig& model, const std::string& fmu_directory);
+// be missing, empty or an earlier unpack). `pointer`: the model's JSON pointer, for errors.
+// Throws UnitModelError when the FMU cannot be loaded.
+UnitModel make_unit_model(const config::ModelConfig& model, const std::string& fmu_directory,
+                          const std::string& pointer = "/units/0/model");
 
 // A private directory for an offline tool's FMU: mkdtemp(3) under $TMPDIR (or /tmp), mode 0700,
 // removed with its contents when destroyed.

@@ -116,7 +116,8 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
       wall_period_ns_(static_cast<std::int64_t>(
           std::llround(unit_.estimator.period_s / config.runtime.time_scale * 1e9))),
       deadline_ns_(static_cast<std::int64_t>(std::llround(unit_.estimator.deadline_s * 1e9))) {
-  UnitModel made = make_unit_model(unit_.model, config.state_directory + "/fmu/" + unit_.id);
+  UnitModel made = make_unit_model(unit_.model, config.state_directory + "/fmu/" + unit_.id,
+                                   "/units/" + std::to_string(unit_index) + "/model");
   model_ = std::move(made.model);
   log_->info("unit {}: model {}", unit_.id, made.origin);
   const plant::ModelLayout& layout = model_->layout();

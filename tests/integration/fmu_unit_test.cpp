@@ -90,3 +90,34 @@ TEST_CASE("an FMU that returns fmi2Error stops its unit's estimates and nothing 
   CHECK(health > 30);  // the unit kept cycling (2 h at a 120 s period: 60 cycles)
   CHECK(good == 0);
 }
+
+TEST_CASE("an FMU whose binary refuses its description is a configuration error at start-up",
+          "[integration][fmi]") {
+  // The description is valid (--check-config cannot run the binary, so it passes), but its GUID
+  // is not the binary's: fmi2Instantiate refuses, and the daemon exits 78 naming the pointer.
+  StackOptions o;
+  o.domain_id = 90;
+  const ScratchDir dir("fmu-guid");
+  const std::string fmu = dir / "other-guid.fmu";
+  const std::string xml = zone_fmu_description();
+  const auto guid = xml.find("guid=\"{") + 7;
+  write_edited_zone_fmu(fmu, "guid=\"{" + xml.substr(guid, 8), "guid=\"{00000000");
+  o.daemon_customize = [&fmu](nlohmann::json& c) {
+    c["units"][0]["model"]["type"] = "fmu";
+    c["units"][0]["model"]["fmu"] = fmu;
+  };
+  Stack stack("fmu-guid", o);
+  stack.write_config(1);
+  Process check(HVAC_TWIND_EXE, {"--check-config", stack.path("config.json")},
+                stack.path("check.out"), stack.path("check.err"));
+  CHECK(check.wait(10s) == 0);
+  Process daemon(HVAC_TWIND_EXE, {"--config", stack.path("config.json")}, stack.path("daemon.out"),
+                 stack.path("daemon.err"));
+  const auto rc = daemon.wait(10s);
+  INFO("daemon stderr:\n" << daemon.err());
+  REQUIRE(rc.has_value());
+  CHECK(*rc == 78);
+  CHECK_THAT(daemon.err(), Catch::Contains("/units/0/model/fmu: FMU zone_rc: fmi2Instantiate "
+                                           "refused") &&
+                               Catch::Contains("GUID {00000000"));
+}

@@ -219,9 +219,12 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
                                  resources.c_str(), &callbacks_, fmi2False, fmi2False);
   if (component_ == nullptr)
     throw FmuError("FMU " + d.model_name + ": fmi2Instantiate refused: " + last_error_);
+  // A throwing constructor runs no destructor: the instance is freed here.
   const auto check = [&](fmi2Status s, const char* call) {
-    if (s > fmi2Warning)
-      throw FmuError("FMU " + d.model_name + ": " + call + " failed: " + last_error_);
+    if (s <= fmi2Warning) return;
+    lib_->free_instance(component_);
+    component_ = nullptr;
+    throw FmuError("FMU " + d.model_name + ": " + call + " failed: " + last_error_);
   };
   check(lib_->setup_experiment(component_, fmi2False, 0.0, 0.0, fmi2False, 0.0),
         "fmi2SetupExperiment");
@@ -235,7 +238,7 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
   for (int i = 0; i < 100 && info.newDiscreteStatesNeeded != fmi2False; ++i)
     check(lib_->new_discrete_states(component_, &info), "fmi2NewDiscreteStates");
   if (info.newDiscreteStatesNeeded != fmi2False)
-    throw FmuError("FMU " + d.model_name + ": event iteration did not converge");
+    check(fmi2Error, "fmi2NewDiscreteStates (the event iteration did not converge)");
   check(lib_->enter_continuous(component_), "fmi2EnterContinuousTimeMode");
   check(lib_->set_time(component_, 0.0), "fmi2SetTime");
 }

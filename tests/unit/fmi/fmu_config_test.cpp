@@ -9,6 +9,8 @@
 #include "config/load.hpp"
 #include "io/fmi/import/fmu_schema.hpp"
 #include "plant_models/catalog.hpp"
+#include "tests/support/edited_fmu.hpp"
+#include "tests/support/scratch_dir.hpp"
 #include "tests/unit/config/config_test_support.hpp"
 
 using namespace hvac_twin;
@@ -110,4 +112,33 @@ TEST_CASE("augment_<input> adds the FMU input's disturbance state to what the es
   c["units"][0]["model"]["parameters"]["augment_heat_pump_heat"] = 0.5;
   CHECK(has_error(load_with_fmu(c), "/units/0/model/parameters/augment_heat_pump_heat",
                   {"expected an integer"}));
+}
+
+TEST_CASE("an FMU with more states than the filters take is refused at its model",
+          "[fmi][config]") {
+  // A description with 1001 states (x_k' = -x_k), packed with the zone FMU's binary: validation
+  // reads only the description.
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n<fmiModelDescription fmiVersion=\"2.0\" modelName=\"big\" "
+      "guid=\"{1}\" numberOfEventIndicators=\"0\">\n<ModelExchange modelIdentifier=\"zone_rc\"/>\n"
+      "<ModelVariables>\n";
+  const int n = 1001;
+  for (int k = 0; k < n; ++k)
+    xml += "<ScalarVariable name=\"x" + std::to_string(k) + "\" valueReference=\"" +
+           std::to_string(k) + "\"><Real start=\"1\"/></ScalarVariable>\n";
+  for (int k = 0; k < n; ++k)
+    xml += "<ScalarVariable name=\"der(x" + std::to_string(k) + ")\" valueReference=\"" +
+           std::to_string(n + k) + "\"><Real derivative=\"" + std::to_string(k + 1) +
+           "\"/></ScalarVariable>\n";
+  xml += "</ModelVariables>\n<ModelStructure><Derivatives>\n";
+  for (int k = 0; k < n; ++k)
+    xml += "<Unknown index=\"" + std::to_string(n + k + 1) + "\"/>\n";
+  xml += "</Derivatives></ModelStructure>\n</fmiModelDescription>\n";
+  const test::ScratchDir dir("fmu-big");
+  test::write_zip(dir / "big.fmu", {{"modelDescription.xml", xml},
+                                    {"binaries/linux64/zone_rc.so", test::zone_fmu_binary()}});
+  auto c = demo_on(dir / "big.fmu");
+  c["units"][0]["model"].erase("parameters");
+  const auto r = load_with_fmu(c);
+  CHECK(has_error(r, "/units/0/model", {"the model has 1001 states", "at most 1000"}));
 }
