@@ -24,9 +24,6 @@ TEST_CASE("the daemon estimates the zone through the zone model exported as an F
     auto& model = c["units"][0]["model"];
     model["type"] = "fmu";
     model["fmu"] = fmu;
-    // What the built-in model's layout carries and an FMU's description does not (fmu_model.hpp):
-    // the gains' initial uncertainty. The demo sets their random walk itself.
-    c["units"][0]["estimator"]["initial_std"]["Q_int"] = 300.0;
   };
   Stack stack("fmu-zone", o);
   const auto rc = stack.run_for(4.0, {"--topics", "virtual_sensor"}, 5s);

@@ -1,5 +1,6 @@
-// hvac-twin-fmu-describe TYPE FILE: writes the modelDescription.xml of the built-in model TYPE
-// exported as an FMI 2.0 Model Exchange FMU (the build packages it with the FMU's library).
+// hvac-twin-fmu-describe TYPE FILE [STRUCTURE]: writes the modelDescription.xml of the built-in
+// model TYPE exported as an FMI 2.0 Model Exchange FMU, its structural parameters as STRUCTURE
+// sets them (describe_builtin; the build packages it with the FMU's library, built with the same).
 #include <cstdio>
 #include <exception>
 #include <fstream>
@@ -7,12 +8,12 @@
 #include "io/fmi/export/fmu_description.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: %s MODEL_TYPE OUTPUT_FILE\n", argv[0]);
+  if (argc != 3 && argc != 4) {
+    std::fprintf(stderr, "usage: %s MODEL_TYPE OUTPUT_FILE [NAME=VALUE,...]\n", argv[0]);
     return 2;
   }
   try {
-    const auto m = hvac_twin::fmi::describe_builtin(argv[1]);
+    const auto m = hvac_twin::fmi::describe_builtin(argv[1], argc == 4 ? argv[3] : "");
     std::ofstream out(argv[2], std::ios::binary | std::ios::trunc);
     out << m.xml;
     out.close();

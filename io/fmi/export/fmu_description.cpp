@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <stdexcept>
 
+#include "io/fmi/annotations.hpp"
 #include "plant_models/catalog.hpp"
 
 namespace hvac_twin::fmi {
@@ -104,12 +105,62 @@ std::string unit_attr(const std::string& unit) {
   return unit.empty() || unit == "1" ? std::string() : " unit=\"" + escaped(unit) + "\"";
 }
 
+// `tool`: the attributes of an hvac-twin annotation element (`<State .../>`), or empty.
 void variable(std::string& x, const std::string& name, unsigned ref, const char* attrs,
-              const std::string& description, const std::string& real) {
+              const std::string& description, const std::string& real,
+              const std::string& tool = {}) {
   x += "    <ScalarVariable name=\"" + escaped(name) + "\" valueReference=\"" +
        std::to_string(ref) + "\" " + attrs;
   if (!description.empty()) x += " description=\"" + escaped(description) + "\"";
-  x += ">\n      <Real" + real + "/>\n    </ScalarVariable>\n";
+  x += ">\n      <Real" + real + "/>\n";
+  if (!tool.empty())
+    x += "      <Annotations><Tool name=\"" + std::string(kToolName) + "\">" + tool +
+         "</Tool></Annotations>\n";
+  x += "    </ScalarVariable>\n";
+}
+
+std::string flag(const char* name, bool value) {
+  return value ? std::string(" ") + name + "=\"true\"" : std::string();
+}
+
+// What the daemon's filters take from a state beyond FMI's own attributes (io/fmi/annotations.hpp).
+std::string state_annotation(const plant::ModelLayout& l, const plant::StateInfo& s) {
+  std::string a = "<State initialStd=\"" + number(s.initial_std) + "\" processNoise=\"" +
+                  number(s.process_noise) + "\"" + flag("augmented", s.augmented) +
+                  flag("consider", s.consider) + flag("calibrate", s.calibrate) +
+                  flag("heldWhileSettling", s.held_while_settling) +
+                  flag("persistent", s.persistent);
+  if (s.excited_by >= 0 && static_cast<std::size_t>(s.excited_by) < l.inputs.size())
+    a += " excitedBy=\"" + escaped(l.inputs[static_cast<std::size_t>(s.excited_by)].name) +
+         "\" excitationMin=\"" + number(s.excitation_min) + "\"";
+  return a + "/>";
+}
+
+std::string output_annotation(const plant::SignalInfo& s) {
+  if (s.model_error == 0.0 && s.model_error_rel == 0.0) return {};
+  return "<Output modelError=\"" + number(s.model_error) + "\" modelErrorRel=\"" +
+         number(s.model_error_rel) + "\"/>";
+}
+
+// The constraints beyond the state bounds, their terms by variable name.
+void constraints(std::string& x, const plant::ModelLayout& l) {
+  if (l.constraints.empty()) return;
+  x += "  <VendorAnnotations>\n    <Tool name=\"" + std::string(kToolName) + "\">\n";
+  for (const auto& c : l.constraints) {
+    const bool outputs = c.over == plant::LinearConstraint::Over::kOutputs;
+    x += "      <Constraint name=\"" + escaped(c.name) + "\" over=\"" +
+         (outputs ? "outputs" : "states") + "\" bound=\"" + number(c.bound) + "\"";
+    if (c.while_input >= 0 && static_cast<std::size_t>(c.while_input) < l.inputs.size())
+      x += " whileInput=\"" + escaped(l.inputs[static_cast<std::size_t>(c.while_input)].name) +
+           "\" whileAbove=\"" + number(c.while_above) + "\"";
+    x += ">";
+    for (const auto& [index, coefficient] : c.terms)
+      x += "<Term variable=\"" +
+           escaped(outputs ? l.outputs.at(index).name : l.states.at(index).name) +
+           "\" coefficient=\"" + number(coefficient) + "\"/>";
+    x += "</Constraint>\n";
+  }
+  x += "    </Tool>\n  </VendorAnnotations>\n";
 }
 
 // An input must have a start value (FMI 2.0, 2.2.7); one the model has no default for starts at
@@ -175,13 +226,16 @@ std::string description_xml(const ExportedModel& m, const std::string& guid) {
   x += "  <UnitDefinitions>\n";
   for (const auto& u : units)
     unit_definition(x, u);
-  x += "  </UnitDefinitions>\n  <ModelVariables>\n";
+  x += "  </UnitDefinitions>\n";
+  constraints(x, l);
+  x += "  <ModelVariables>\n";
   for (std::size_t i = 0; i < m.n(); ++i) {
     const auto& s = l.states[i];
     variable(x, s.name, m.state_ref(i),
              "causality=\"local\" variability=\"continuous\" initial=\"exact\"", s.description,
              unit_attr(s.unit) + range(s.min, s.max) + nominal(s.abs_tol) + " start=\"" +
-                 number(s.initial) + "\"");
+                 number(s.initial) + "\"",
+             state_annotation(l, s));
   }
   for (std::size_t i = 0; i < m.n(); ++i) {
     const auto& s = l.states[i];
@@ -198,7 +252,7 @@ std::string description_xml(const ExportedModel& m, const std::string& guid) {
   for (std::size_t i = 0; i < l.outputs.size(); ++i) {
     const auto& s = l.outputs[i];
     variable(x, s.name, m.output_ref(i), "causality=\"output\" variability=\"continuous\"",
-             s.description, unit_attr(s.unit) + range(s.min, s.max));
+             s.description, unit_attr(s.unit) + range(s.min, s.max), output_annotation(s));
   }
   std::size_t k = 0;
   for (const auto& p : m.tunable)
@@ -228,16 +282,37 @@ std::string description_xml(const ExportedModel& m, const std::string& guid) {
 
 }  // namespace
 
-ExportedModel describe_builtin(std::string_view type) {
+ExportedModel describe_builtin(std::string_view type, std::string_view structure) {
   const plant::ModelSchema* schema = plant::find_schema(type);
   if (schema == nullptr)
     throw std::invalid_argument("unknown model type \"" + std::string(type) + "\"");
   ExportedModel m;
   m.type = schema->type;
   m.description = schema->description;
-  m.layout = schema->layout(plant::with_defaults(*schema, {}));
   for (const auto& p : schema->parameters)
     (p.integer ? m.structural : m.tunable).push_back(p);
+  plant::ParameterMap built;
+  while (!structure.empty()) {
+    const auto comma = structure.find(',');
+    const std::string_view item = structure.substr(0, comma);
+    structure = comma == std::string_view::npos ? std::string_view{} : structure.substr(comma + 1);
+    const auto eq = item.find('=');
+    const std::string name(item.substr(0, eq));
+    plant::ParameterInfo* p = nullptr;
+    for (auto& s : m.structural)
+      if (s.name == name) p = &s;
+    double value = 0.0;
+    if (eq == std::string_view::npos || p == nullptr ||
+        std::from_chars(item.data() + eq + 1, item.data() + item.size(), value).ptr !=
+            item.data() + item.size() ||
+        !(value >= p->min && value <= p->max))
+      throw std::invalid_argument("structure \"" + std::string(item) +
+                                  "\": not a structural parameter of " + m.type +
+                                  " with a value in its range");
+    p->default_value = value;
+    built[name] = value;
+  }
+  m.layout = schema->layout(plant::with_defaults(*schema, built));
   // The GUID hashes the text it is written into, with a placeholder in its place.
   m.guid = guid_of(description_xml(m, "{}"));
   m.xml = description_xml(m, m.guid);

@@ -22,7 +22,8 @@ struct ExportedModel {
   std::string description;
   plant::ModelLayout layout;
   std::vector<plant::ParameterInfo> tunable;     // settable before initialisation ends
-  std::vector<plant::ParameterInfo> structural;  // fixed at their defaults (they shape the layout)
+  std::vector<plant::ParameterInfo> structural;  // fixed when built (they shape the layout); their
+                                                 // default_value is the value built with
   std::string guid;
   std::string xml;
 
@@ -45,8 +46,10 @@ struct ExportedModel {
   static unsigned ref(std::size_t i) { return static_cast<unsigned>(i); }
 };
 
-// The built-in model `type` at its default parameters, described. Throws std::invalid_argument
-// for an unknown type.
-ExportedModel describe_builtin(std::string_view type);
+// The built-in model `type`, described: its structural (integer) parameters at their defaults
+// except those `structure` sets ("name=value,name=value"; the build gives the heat pump the
+// demo's), the others tunable at their defaults. Throws std::invalid_argument for an unknown type
+// or a structure that is not the type's structural parameters.
+ExportedModel describe_builtin(std::string_view type, std::string_view structure = {});
 
 }  // namespace hvac_twin::fmi

@@ -29,8 +29,13 @@ namespace {
 using hvac_twin::fmi::ExportedModel;
 namespace plant = hvac_twin::plant;
 
+#ifndef HVAC_TWIN_FMU_STRUCTURE
+#define HVAC_TWIN_FMU_STRUCTURE ""
+#endif
+
 const ExportedModel& exported() {
-  static const ExportedModel m = hvac_twin::fmi::describe_builtin(HVAC_TWIN_FMU_TYPE);
+  static const ExportedModel m =
+      hvac_twin::fmi::describe_builtin(HVAC_TWIN_FMU_TYPE, HVAC_TWIN_FMU_STRUCTURE);
   return m;
 }
 
@@ -70,7 +75,10 @@ fmi2Status from_model(int status) {
 }
 
 fmi2Status build_model(Instance& in) {
-  in.model = plant::create_model(in.d->type, in.params);
+  plant::ParameterMap all = in.params;
+  for (const auto& p : in.d->structural)
+    all[p.name] = p.default_value;  // the value the FMU was built with
+  in.model = plant::create_model(in.d->type, all);
   in.touched();
   return fmi2OK;
 }

@@ -109,6 +109,65 @@ std::vector<std::size_t> fmu_disturbances(const ModelDescription& d,
   return out;
 }
 
+namespace {
+
+// The hvac-twin annotation attribute `key` of `v` as a number, or `fallback` when absent.
+double tool_number(const FmuVariable& v, const char* key, double fallback) {
+  const auto it = v.tool.find(key);
+  if (it == v.tool.end()) return fallback;
+  char* end = nullptr;
+  const double value = std::strtod(it->second.c_str(), &end);
+  if (end == it->second.c_str() || *end != '\0')
+    throw FmuError("variable \"" + v.name + "\": hvac-twin annotation " + key + "=\"" + it->second +
+                   "\" is not a number");
+  return value;
+}
+
+bool tool_flag(const FmuVariable& v, const char* key) {
+  const auto it = v.tool.find(key);
+  return it != v.tool.end() && it->second == "true";
+}
+
+std::size_t index_of(const auto& list, const std::string& name, const std::string& what) {
+  if (const auto i = plant::ModelLayout::find(list, name)) return *i;
+  throw FmuError("hvac-twin annotation: " + what + " \"" + name + "\" is not in the model");
+}
+
+// A state's filter settings from its annotation (io/fmi/annotations.hpp), when it has one.
+void annotate_state(const FmuVariable& v, const plant::ModelLayout& layout, plant::StateInfo& s) {
+  if (v.tool.empty()) return;
+  s.initial_std = tool_number(v, "initialStd", s.initial_std);
+  s.process_noise = tool_number(v, "processNoise", s.process_noise);
+  s.augmented = tool_flag(v, "augmented");
+  s.consider = tool_flag(v, "consider");
+  s.calibrate = tool_flag(v, "calibrate");
+  s.held_while_settling = tool_flag(v, "heldWhileSettling");
+  s.persistent = tool_flag(v, "persistent");
+  if (const auto it = v.tool.find("excitedBy"); it != v.tool.end()) {
+    s.excited_by = static_cast<int>(index_of(layout.inputs, it->second, "input"));
+    s.excitation_min = tool_number(v, "excitationMin", 0.0);
+  }
+}
+
+plant::LinearConstraint constraint_of(const ToolConstraint& t, const plant::ModelLayout& layout) {
+  plant::LinearConstraint c;
+  c.name = t.name;
+  c.over = t.over_outputs ? plant::LinearConstraint::Over::kOutputs
+                          : plant::LinearConstraint::Over::kStates;
+  c.bound = t.bound;
+  for (const auto& [name, coefficient] : t.terms)
+    c.terms.emplace_back(t.over_outputs ? index_of(layout.outputs, name, "output")
+                                        : index_of(layout.states, name, "state"),
+                         coefficient);
+  if (!t.while_input.empty()) {
+    c.while_input = static_cast<int>(index_of(layout.inputs, t.while_input, "input"));
+    c.while_above = t.while_above;
+  }
+  return c;
+}
+
+}  // namespace
+
 plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterMap& params) {
   plant::ModelLayout layout;
   const auto unit = [](const std::string& u) { return u.empty() ? std::string("1") : u; };
@@ -129,6 +188,8 @@ plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterM
     const FmuVariable& v = d.variables[i];
     layout.inputs.push_back({v.name, unit(v.unit), v.min, v.max, v.start, v.description});
   }
+  for (std::size_t k = 0; k < d.states.size(); ++k)
+    annotate_state(d.variables[d.states[k]], layout, layout.states[k]);
   for (std::size_t k : fmu_disturbances(d, params)) {
     const FmuVariable& v = d.variables[d.inputs[k]];
     const double width = v.max - v.min;
@@ -146,8 +207,12 @@ plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterM
   }
   for (std::size_t i : d.outputs) {
     const FmuVariable& v = d.variables[i];
-    layout.outputs.push_back({v.name, unit(v.unit), v.min, v.max, plant::kRequired, v.description});
+    layout.outputs.push_back({v.name, unit(v.unit), v.min, v.max, plant::kRequired, v.description,
+                              tool_number(v, "modelError", 0.0),
+                              tool_number(v, "modelErrorRel", 0.0)});
   }
+  for (const ToolConstraint& t : d.constraints)
+    layout.constraints.push_back(constraint_of(t, layout));
   return layout;
 }
 

@@ -5,6 +5,8 @@
 #include <map>
 #include <pugixml.hpp>
 
+#include "io/fmi/annotations.hpp"
+
 namespace hvac_twin::fmi {
 namespace {
 
@@ -96,6 +98,11 @@ ModelDescription parse_model_description(const std::string& text, const std::str
       if (type.attribute("derivative"))
         v.derivative_of = static_cast<long>(type.attribute("derivative").as_llong(0)) - 1;
     }
+    for (const pugi::xml_node tool : sv.child("Annotations").children("Tool")) {
+      if (std::string(tool.attribute("name").value()) != kToolName) continue;
+      for (const pugi::xml_attribute a : tool.first_child().attributes())
+        v.tool[a.name()] = a.value();
+    }
     const bool io = v.causality == "input" || v.causality == "output";
     if (io && v.type != "Real")
       fail(source, "variable \"" + v.name + "\" is an " + v.causality + " of type " + v.type +
@@ -104,6 +111,21 @@ ModelDescription parse_model_description(const std::string& text, const std::str
       fail(source,
            "variable \"" + v.name + "\" is discrete; FMUs with discrete states are not supported");
     d.variables.push_back(std::move(v));
+  }
+  for (const pugi::xml_node tool : root.child("VendorAnnotations").children("Tool")) {
+    if (std::string(tool.attribute("name").value()) != kToolName) continue;
+    for (const pugi::xml_node c : tool.children("Constraint")) {
+      ToolConstraint t;
+      t.name = c.attribute("name").value();
+      t.over_outputs = std::string(c.attribute("over").value()) == "outputs";
+      t.bound = number_attr(c, "bound", 0.0, source, t.name);
+      t.while_input = c.attribute("whileInput").value();
+      t.while_above = number_attr(c, "whileAbove", 0.0, source, t.name);
+      for (const pugi::xml_node term : c.children("Term"))
+        t.terms.emplace_back(term.attribute("variable").value(),
+                             number_attr(term, "coefficient", 0.0, source, t.name));
+      d.constraints.push_back(std::move(t));
+    }
   }
   const std::size_t count = d.variables.size();
   for (std::size_t i = 0; i < count; ++i) {

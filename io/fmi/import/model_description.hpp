@@ -4,8 +4,10 @@
 
 #include <cstddef>
 #include <limits>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hvac_twin::fmi {
@@ -29,6 +31,18 @@ struct FmuVariable {
   double max = std::numeric_limits<double>::infinity();
   double nominal = 1.0;
   long derivative_of = -1;  // index (0-based) of the state this variable is the derivative of
+  // The attributes of its hvac-twin annotation (<State> or <Output>, io/fmi/annotations.hpp).
+  std::map<std::string, std::string> tool;
+};
+
+// A constraint of the hvac-twin annotations, its terms by variable name.
+struct ToolConstraint {
+  std::string name;
+  bool over_outputs = false;
+  double bound = 0.0;
+  std::string while_input;  // empty: always
+  double while_above = 0.0;
+  std::vector<std::pair<std::string, double>> terms;
 };
 
 struct ModelDescription {
@@ -40,8 +54,9 @@ struct ModelDescription {
   std::vector<std::size_t> states;     // indices into variables, in <Derivatives> order
   std::vector<std::size_t> derivatives;
   std::vector<std::size_t> inputs;
-  std::vector<std::size_t> outputs;     // in <Outputs> order
-  std::vector<std::size_t> parameters;  // causality "parameter", Real
+  std::vector<std::size_t> outputs;         // in <Outputs> order
+  std::vector<std::size_t> parameters;      // causality "parameter", Real
+  std::vector<ToolConstraint> constraints;  // from the hvac-twin vendor annotations
 
   [[nodiscard]] const FmuVariable* find(const std::string& name) const {
     for (const auto& v : variables)
