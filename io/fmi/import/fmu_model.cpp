@@ -219,11 +219,18 @@ plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterM
 void FmuModel::logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                       fmi2String category, fmi2String message, ...) {
   if (env == nullptr || status < fmi2Error) return;  // warnings and debug output are dropped
-  char text[512];
-  va_list args;
-  va_start(args, message);
-  std::vsnprintf(text, sizeof text, message == nullptr ? "" : message, args);
-  va_end(args);
+  char text[512] = "";
+  if (message != nullptr) {
+    va_list args;
+    va_start(args, message);
+    // The FMU hands the format (FMI 2.0 2.1.5: the message is a printf format, with its
+    // arguments after it): it cannot be a literal here.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+    std::vsnprintf(text, sizeof text, message, args);
+#pragma GCC diagnostic pop
+    va_end(args);
+  }
   static_cast<FmuModel*>(env)->last_error_ = std::string(instance == nullptr ? "" : instance) +
                                              " [" + (category == nullptr ? "" : category) +
                                              "]: " + text;
