@@ -249,7 +249,7 @@ TEST_CASE("the golden recording replays through the heat pump exported as an FMU
   // The same pipeline on build/fmu/heat_pump_r32.fmu (exported with the demo's structure, its
   // filter settings in hvac-twin annotations) instead of the built-in model. It does not
   // reproduce the built-in run: an FMU has no initial guess from the measured conditions
-  // (ContinuousModel::initial_guess), so it starts from the states' start values, and the
+  // (ContinuousModel::initial_guess), so it starts from its own initial state, and the
   // estimates differ over the transient. It must run the whole recording as well: every cycle
   // GOOD, the same columns, and the charge it ends with within 3 sigma of the truth's 0.5 kg.
   ScratchDir dir("golden-fmu");

@@ -37,6 +37,7 @@ class FmuLibrary {
   fmi2GetRealTYPE get_real = nullptr;
   fmi2SetContinuousStatesTYPE set_states = nullptr;
   fmi2GetDerivativesTYPE get_derivatives = nullptr;
+  fmi2GetContinuousStatesTYPE get_states = nullptr;
   fmi2GetDirectionalDerivativeTYPE directional = nullptr;  // when provided
 };
 
@@ -90,6 +91,7 @@ std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
   bind(*lib, lib->get_real, "fmi2GetReal", so);
   bind(*lib, lib->set_states, "fmi2SetContinuousStates", so);
   bind(*lib, lib->get_derivatives, "fmi2GetDerivatives", so);
+  bind(*lib, lib->get_states, "fmi2GetContinuousStates", so);
   bind(*lib, lib->directional, "fmi2GetDirectionalDerivative", so,
        lib->description.provides_directional_derivative);
   return lib;
@@ -313,6 +315,12 @@ FmuModel::FmuModel(std::shared_ptr<const FmuLibrary> library, FmuOptions options
     check(fmi2Error, "fmi2NewDiscreteStates (the event iteration did not converge)");
   check(lib_->enter_continuous(component_), "fmi2EnterContinuousTimeMode");
   check(lib_->set_time(component_, 0.0), "fmi2SetTime");
+  // The initial estimate: the state the FMU's initialisation computed (with the parameters set
+  // above; a state whose description gives no start value has one only here).
+  std::vector<double> x0(state_refs_.size());
+  check(lib_->get_states(component_, x0.data(), x0.size()), "fmi2GetContinuousStates");
+  for (std::size_t k = 0; k < x0.size(); ++k)
+    if (std::isfinite(x0[k])) layout_.states[k].initial = x0[k];
 }
 
 FmuModel::~FmuModel() {

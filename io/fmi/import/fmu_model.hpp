@@ -3,8 +3,10 @@
 // unchanged.
 //
 //   states       the <Derivatives> of ModelStructure and the variables they are derivatives of;
-//                min/max become the state bounds of the constrained update, start the initial
-//                estimate, 0.1 max(|start|, nominal) its default sigma
+//                min/max become the state bounds of the constrained update; the initial
+//                estimate is the state the FMU's initialisation computed (fmi2GetContinuousStates;
+//                the description's start values for configuration validation), its default sigma
+//                0.1 max(|start|, nominal)
 //   inputs       causality "input" (start: the default when no point provides one)
 //   outputs      causality "output", in <Outputs> order
 //   parameters   causality "parameter" (Real), set before initialisation from a ParameterMap

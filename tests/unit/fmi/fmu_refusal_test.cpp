@@ -122,3 +122,20 @@ TEST_CASE("an FMU that returns fmi2Error fails the model for good and says why",
   CHECK_THAT(std::string(model.failure()), Catch::Contains("no variable has value reference 9999"));
   CHECK(model.rhs(x, u, xdot) == plant::kModelFatal);  // not called again
 }
+
+TEST_CASE("a state without a start value starts where the FMU's initialisation puts it", "[fmi]") {
+  // The zone FMU with T_air's start attribute removed from its description: the layout the
+  // description gives starts it at 0, the FMU's own initialisation at 20 degC.
+  const test::ScratchDir dir("fmu-start");
+  const std::string xml = description();
+  const auto t_air = xml.find("name=\"T_air\"");
+  const auto start = xml.find(" start=\"20\"", t_air);
+  REQUIRE(start != std::string::npos);
+  const std::string line = xml.substr(t_air, start + 11 - t_air);
+  const std::string path =
+      edited(dir, line, line.substr(0, line.size() - std::string(" start=\"20\"").size()));
+  const auto lib = fmi::load_fmu(path, dir / "unpacked");
+  CHECK(fmi::fmu_layout(fmi::description_of(*lib), {}).states[0].initial == 0.0);
+  const fmi::FmuModel model(lib, {});
+  CHECK(model.layout().states[0].initial == 20.0);
+}
