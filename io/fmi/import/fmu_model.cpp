@@ -44,9 +44,9 @@ class FmuLibrary {
 namespace {
 
 template <class F>
-void bind(FmuLibrary& lib, F& fn, const char* name, const std::string& so, bool required = true) {
+void bind(FmuLibrary& lib, F& fn, const char* name, const std::string& so) {
   fn = reinterpret_cast<F>(dlsym(lib.handle, name));
-  if (fn == nullptr && required) throw FmuError(so + ": does not export " + name);
+  if (fn == nullptr) throw FmuError(so + ": does not export " + name);
 }
 
 std::string read_file(const std::string& path) {
@@ -92,8 +92,9 @@ std::shared_ptr<const FmuLibrary> load_fmu(const std::string& fmu_path,
   bind(*lib, lib->set_states, "fmi2SetContinuousStates", so);
   bind(*lib, lib->get_derivatives, "fmi2GetDerivatives", so);
   bind(*lib, lib->get_states, "fmi2GetContinuousStates", so);
-  bind(*lib, lib->directional, "fmi2GetDirectionalDerivative", so,
-       lib->description.provides_directional_derivative);
+  // Only an FMU that says it provides them is asked for directional derivatives.
+  if (lib->description.provides_directional_derivative)
+    bind(*lib, lib->directional, "fmi2GetDirectionalDerivative", so);
   return lib;
 }
 

@@ -9,6 +9,7 @@
 
 #include "io/fmi/import/fmu_archive.hpp"
 #include "io/fmi/import/fmu_model.hpp"
+#include "plant_models/catalog.hpp"
 #include "tests/support/edited_fmu.hpp"
 #include "tests/support/scratch_dir.hpp"
 
@@ -77,6 +78,8 @@ TEST_CASE("what the import does not support is refused with the reason", "[fmi]"
   const test::ScratchDir dir("fmu-unsupported");
   CHECK_THROWS_WITH(load(dir, edited(dir, "fmiVersion=\"2.0\"", "fmiVersion=\"1.0\"")),
                     Catch::Contains("fmiVersion is \"1.0\"; only FMI 2.0 is supported"));
+  CHECK_THROWS_WITH(load(dir, edited(dir, "fmiVersion=\"2.0\"", "fmiVersion=\"3.0\"")),
+                    Catch::Contains("fmiVersion is \"3.0\"; only FMI 2.0 is supported"));
   CHECK_THROWS_WITH(load(dir, edited(dir, "<ModelExchange", "<CoSimulation")),
                     Catch::Contains("not a Model Exchange FMU"));
   CHECK_THROWS_WITH(
@@ -138,4 +141,27 @@ TEST_CASE("a state without a start value starts where the FMU's initialisation p
   CHECK(fmi::fmu_layout(fmi::description_of(*lib), {}).states[0].initial == 0.0);
   const fmi::FmuModel model(lib, {});
   CHECK(model.layout().states[0].initial == 20.0);
+}
+
+TEST_CASE("an FMU without directional derivatives is differentiated by central differences",
+          "[fmi]") {
+  // The zone FMU declaring providesDirectionalDerivative="false": the import takes the
+  // finite-difference path by itself, and its Jacobians match the built-in model's AD ones.
+  const test::ScratchDir dir("fmu-nodd");
+  const std::string path = edited(dir, "providesDirectionalDerivative=\"true\"",
+                                  "providesDirectionalDerivative=\"false\"");
+  const auto lib = fmi::load_fmu(path, dir / "unpacked");
+  const fmi::FmuModel model(lib, {});
+  CHECK(model.jacobian_method() == fmi::JacobianMethod::kFiniteDifferences);
+  const auto ref = plant::create_model("zone_rc", {});
+  const std::vector<double> x{24.0, 22.0, 500.0}, u{-3000.0, 31.0};
+  std::vector<double> J(9), J_ref(9), H(12), H_ref(12);
+  REQUIRE(model.rhs_jacobian(x, u, {}, J) == plant::kModelOk);
+  REQUIRE(ref->rhs_jacobian(x, u, {}, J_ref) == plant::kModelOk);
+  REQUIRE(model.output_jacobian(x, u, {}, H) == plant::kModelOk);
+  REQUIRE(ref->output_jacobian(x, u, {}, H_ref) == plant::kModelOk);
+  for (std::size_t i = 0; i < J.size(); ++i)
+    CHECK(J[i] == Approx(J_ref[i]).epsilon(1e-6).margin(1e-12));
+  for (std::size_t i = 0; i < H.size(); ++i)
+    CHECK(H[i] == Approx(H_ref[i]).epsilon(1e-6).margin(1e-9));
 }
