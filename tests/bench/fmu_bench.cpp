@@ -27,15 +27,6 @@ namespace {
 using namespace hvac_twin;
 using Clock = std::chrono::steady_clock;
 
-plant::ParameterMap demo_structure() {
-  plant::ParameterMap p;
-  for (const char* factor :
-       {"fouling", "evap_ua_factor", "comp_flow_factor", "comp_efficiency_factor", "void_exponent",
-        "cond_htc_factor", "evap_htc_factor"})
-    p[std::string("augment_") + factor] = 1.0;
-  return p;
-}
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -61,7 +52,7 @@ int main(int argc, char** argv) {
     const auto lib =
         fmi::load_fmu(std::string(HVAC_TWIN_FMU_DIR) + "/heat_pump_r32.fmu", dir + "/unpacked");
     const fmi::FmuModel fmu(lib, {});
-    const test::HeatPumpRig rig(demo_structure());
+    const test::HeatPumpRig rig(test::demo_structure());
     const plant::ContinuousModel& builtin = *rig.model;
     const auto u = test::nominal_inputs();
     auto x0 = rig.start();

@@ -37,10 +37,6 @@ struct ExportedModel {
   [[nodiscard]] unsigned parameter_ref(std::size_t i) const {
     return ref(2 * n() + layout.inputs.size() + layout.outputs.size() + i);
   }
-  [[nodiscard]] std::size_t num_variables() const {
-    return 2 * n() + layout.inputs.size() + layout.outputs.size() + tunable.size() +
-           structural.size();
-  }
 
  private:
   static unsigned ref(std::size_t i) { return static_cast<unsigned>(i); }

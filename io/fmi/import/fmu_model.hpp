@@ -19,7 +19,7 @@
 //
 // Errors: fmi2Discard is recoverable (kModelRecoverable: the integrator retries smaller);
 // fmi2Error and fmi2Fatal are fatal, and the instance is not called again (every later call
-// returns kModelFatal); last_error() holds the FMU's last logged message. In-process isolation
+// returns kModelFatal); failure() holds the FMU's last logged message. In-process isolation
 // only: an FMU that crashes or corrupts memory takes the process with it.
 #pragma once
 
@@ -89,7 +89,6 @@ class FmuModel final : public plant::ContinuousModel {
   }
 
   [[nodiscard]] JacobianMethod jacobian_method() const { return method_; }
-  [[nodiscard]] const std::string& last_error() const { return last_error_; }
 
  private:
   static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,

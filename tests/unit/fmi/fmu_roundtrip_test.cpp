@@ -116,16 +116,6 @@ void check_same_values(const plant::ContinuousModel& fmu, const plant::Continuou
   check_close(y3, y4);
 }
 
-// The structure the build exports the heat pump with (io/fmi/CMakeLists.txt): the demo's.
-plant::ParameterMap demo_structure() {
-  plant::ParameterMap p;
-  for (const char* factor :
-       {"fouling", "evap_ua_factor", "comp_flow_factor", "comp_efficiency_factor", "void_exponent",
-        "cond_htc_factor", "evap_htc_factor"})
-    p[std::string("augment_") + factor] = 1.0;
-  return p;
-}
-
 }  // namespace
 
 TEST_CASE("the zone model exported as an FMU and imported back is the built-in model", "[fmi]") {
@@ -174,7 +164,7 @@ TEST_CASE("the heat pump exported as an FMU integrates as the built-in model doe
   const test::ScratchDir dir("fmu-heat-pump");
   const auto lib = fmi::load_fmu(fmu_path("heat_pump_r32"), dir / "unpacked");
   const fmi::FmuModel fmu(lib, {});
-  const test::HeatPumpRig rig(demo_structure());
+  const test::HeatPumpRig rig(test::demo_structure());
   const auto& ref = *rig.model;
   check_same_layout(fmu, ref);
   const auto u = test::nominal_inputs();
@@ -213,7 +203,7 @@ TEST_CASE("central differences on the FMU agree with its directional derivatives
   const fmi::FmuModel exact(lib, {});
   const fmi::FmuModel fd(lib, {.finite_differences = true});
   CHECK(fd.jacobian_method() == fmi::JacobianMethod::kFiniteDifferences);
-  const test::HeatPumpRig rig(demo_structure());
+  const test::HeatPumpRig rig(test::demo_structure());
   const auto u = test::nominal_inputs();
   auto x = rig.start();
   rig.run(x, u, 300.0);
@@ -291,7 +281,7 @@ TEST_CASE("the constrained EKF on the heat-pump FMU gives the built-in model's e
   const test::ScratchDir dir("fmu-ekf");
   const auto lib = fmi::load_fmu(fmu_path("heat_pump_r32"), dir / "unpacked");
   const fmi::FmuModel fmu(lib, {});
-  const test::HeatPumpRig rig(demo_structure());
+  const test::HeatPumpRig rig(test::demo_structure());
   const auto u = test::nominal_inputs();
   const auto guess = rig.start();
   auto truth = guess;

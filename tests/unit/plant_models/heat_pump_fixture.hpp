@@ -4,6 +4,7 @@
 
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "plant_models/catalog.hpp"
@@ -16,6 +17,17 @@ namespace hvac_twin::test {
 // Rated speed, the valve opening that gives ~6 K superheat at 35/27 degC, rated fans.
 inline std::vector<double> nominal_inputs(double t_out = 35.0) {
   return {50.0, 0.374, 1.0, 1.0, t_out};
+}
+
+// The structure the demo runs (config/demo-heat-pump.json) and the build exports the heat-pump
+// FMU with (io/fmi/CMakeLists.txt): the seven closures it estimates carried as states.
+inline plant::ParameterMap demo_structure() {
+  plant::ParameterMap p;
+  for (const char* factor :
+       {"fouling", "evap_ua_factor", "comp_flow_factor", "comp_efficiency_factor", "void_exponent",
+        "cond_htc_factor", "evap_htc_factor"})
+    p[std::string("augment_") + factor] = 1.0;
+  return p;
 }
 
 struct HeatPumpRig {
