@@ -1,14 +1,16 @@
 // Child processes for integration tests: spawn a built program with arguments and environment,
-// its stdout and stderr going to files; signal it; wait for it with a timeout.
+// its stdout and stderr going to files; signal it; wait for it with a timeout. The child dies
+// with the test (spawn_tied.hpp).
 #pragma once
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -16,6 +18,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "tests/support/spawn_tied.hpp"
 
 extern char** environ;
 
@@ -43,13 +47,15 @@ class Process {
     for (auto& e : env_s)
       envp.push_back(e.data());
     envp.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out_file.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err_file.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    const int rc = posix_spawn(&pid_, program.c_str(), &fa, nullptr, argv.data(), envp.data());
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw std::runtime_error("cannot start " + program);
+    const int out = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    const int err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (out >= 0 && err >= 0)
+      pid_ = spawn_tied(program.c_str(), argv.data(), envp.data(), out, err);
+    const int spawn_errno = errno;
+    if (out >= 0) ::close(out);
+    if (err >= 0) ::close(err);
+    if (pid_ < 0)
+      throw std::runtime_error("cannot start " + program + ": " + std::strerror(spawn_errno));
   }
   ~Process() {
     if (pid_ > 0 && !status_) {
