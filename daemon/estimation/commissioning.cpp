@@ -67,8 +67,16 @@ std::string StatePhases::begin(Estimator& filter, double t) {
   return {};
 }
 
+StatePhases StatePhases::resumed_ramp(const plant::ModelLayout& layout, double release_s) {
+  StatePhases phases(layout, {}, 0.0, 0.0, release_s);
+  phases.ramp_from_start_ = true;
+  return phases;
+}
+
 double StatePhases::release_weight(double t) const {
-  if (!(release_s_ > 0.0) || !(settle_s_ > 0.0) || t >= settle_s_ + release_s_) return 1.0;
+  if (!(release_s_ > 0.0) || (!(settle_s_ > 0.0) && !ramp_from_start_) ||
+      t >= settle_s_ + release_s_)
+    return 1.0;
   return std::max(0.0, (t - settle_s_) / release_s_);
 }
 

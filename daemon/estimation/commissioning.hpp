@@ -49,6 +49,12 @@ class StatePhases {
   StatePhases(const plant::ModelLayout& layout, std::vector<KnownState> known, double settle_s,
               double commissioning_s, double release_s = 0.0);
 
+  // The phases of a filter resumed from a checkpoint saved before its augmented states were
+  // fully released (in the hold or the ramp): no hold, and the ramp of release_s from t = 0.
+  // (Without a hold the constructor's phases release at once: a resumed filter whose parameters
+  // were released when it was saved.)
+  static StatePhases resumed_ramp(const plant::ModelLayout& layout, double release_s);
+
   // The operation-phase flag of a state (initially the layout's consider || calibrate): the
   // configuration may override it.
   void set_base(std::size_t state, bool consider);
@@ -67,6 +73,8 @@ class StatePhases {
   void apply(Estimator& filter, double t, std::span<const double> u = {}) const;
 
   [[nodiscard]] bool settling(double t) const { return t < settle_s_; }
+  // Whether the augmented states are held or not yet at full gain at time t.
+  [[nodiscard]] bool releasing(double t) const { return settling(t) || release_weight(t) < 1.0; }
   [[nodiscard]] bool commissioning(double t) const {
     return !known_.empty() && t < commissioning_s_;
   }
@@ -78,6 +86,7 @@ class StatePhases {
   std::vector<int> excited_by_;
   std::vector<double> excitation_min_;
   double settle_s_, commissioning_s_, release_s_;
+  bool ramp_from_start_ = false;  // resumed_ramp()
 };
 
 }  // namespace hvac_twin::est

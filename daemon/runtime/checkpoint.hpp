@@ -57,6 +57,9 @@ inline constexpr std::size_t kCheckpointMaxLeakBlock = 65536;  // [doubles]
 // FilterSnapshot::flags: the filter was still converging (flag cold_start) when saved, so the
 // resumed one is too until it converges.
 inline constexpr std::uint32_t kSnapshotConverging = 1u << 0;
+// FilterSnapshot::flags: the augmented states were held or not yet at full gain when saved (the
+// parameter hold and release of a cold start), so the resumed filter ramps them in again.
+inline constexpr std::uint32_t kSnapshotReleasing = 1u << 1;
 
 // Everything a restarted daemon needs to continue one unit's estimate. Plain data; the runtime
 // keeps one, sized at start-up, and refills it in place (no allocation once sized).

@@ -126,6 +126,8 @@ UnitPipeline::UnitPipeline(const config::Config& config, std::size_t unit_index,
                                                     unit_.estimator.parameter_release_s);
   phases_resumed_ =
       std::make_unique<est::StatePhases>(layout, std::vector<est::KnownState>{}, 0.0, 0.0);
+  phases_ramp_ = std::make_unique<est::StatePhases>(
+      est::StatePhases::resumed_ramp(layout, unit_.estimator.parameter_release_s));
   phases_ = phases_cold_.get();
 
   // Initial state, its uncertainty and the process noise: model defaults, then configuration.
@@ -303,10 +305,12 @@ void UnitPipeline::initialize() {
     phases_from_s_ = model_time_s_;
     phases_->apply(*filter_, 0.0);
   } else {
-    // A resumed filter has its parameters: no settling hold, only the excitation holds.
+    // A resumed filter has its parameters: no settling hold, only the excitation holds; if they
+    // were not fully released when it was saved, the release ramp once more from now.
     cold_start_ = resumed == Resumed::kConverging;
     converged_updates_ = 0;
-    phases_ = phases_resumed_.get();
+    phases_ = resumed_releasing_ ? phases_ramp_.get() : phases_resumed_.get();
+    phases_from_s_ = model_time_s_;
     phases_->apply(*filter_, 0.0);
   }
 }

@@ -204,7 +204,11 @@ class UnitPipeline {
   // stands still (est::StatePhases).
   // Both built with the pipeline (a restart allocates nothing): after a start from the measured
   // conditions with the settling hold, after a resume without it; phases_ is the one in use.
-  std::unique_ptr<est::StatePhases> phases_cold_, phases_resumed_;
+  // phases_ramp_: after a resume from a checkpoint saved before the release was complete
+  // (kSnapshotReleasing), the release ramp again from the resume, so that a restart mid-ramp
+  // does not release the parameters at once.
+  std::unique_ptr<est::StatePhases> phases_cold_, phases_resumed_, phases_ramp_;
+  bool resumed_releasing_ = false;  // the checkpoint resumed from had kSnapshotReleasing
   const est::StatePhases* phases_ = nullptr;
   double phases_from_s_ = 0.0;  // the model time the phases count from [s]
   int failed_predictions_ = 0;  // in a row

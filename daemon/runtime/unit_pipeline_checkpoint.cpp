@@ -60,6 +60,7 @@ UnitPipeline::Resumed UnitPipeline::resume_from_checkpoint() {
   }
   model_time_s_ = s.model_time_s;
   const bool converging = (s.flags & kSnapshotConverging) != 0;
+  resumed_releasing_ = !stale && (s.flags & kSnapshotReleasing) != 0;
   const auto charge = model_->layout().state("charge");
   const std::string what =
       stale ? fmt::format(
@@ -68,8 +69,16 @@ UnitPipeline::Resumed UnitPipeline::resume_from_checkpoint() {
                   "re-settled from the measured conditions (flag cold_start)",
                   max_age_s)
             : std::string(converging ? "still converging: flag cold_start" : "");
-  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{}{}{})",
+  const std::string ramp =
+      resumed_releasing_
+          ? fmt::format(
+                "saved before the parameters were fully released: released again over "
+                "{:.0f} s",
+                unit_.estimator.parameter_release_s)
+          : std::string();
+  log_->info("unit {}: resumed from checkpoint {} (cycle {}, written {:.0f} s ago{}{}{}{}{}{})",
              unit_.id, checkpoints_->path(), s.cycle, age_s, what.empty() ? "" : ", ", what,
+             ramp.empty() ? "" : ", ", ramp,
              charge ? fmt::format(", charge {:.4f} kg", s.x[*charge]) : std::string(),
              leak_ ? "; leak detector " + describe_leak_detector() : std::string());
   if (stale) return Resumed::kProperties;
@@ -116,7 +125,8 @@ void UnitPipeline::save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle) {
   snapshot_.cycle = cycle;
   snapshot_.model_time_s = model_time_s_;
   snapshot_.wall_time_ns = stamp_ns;
-  snapshot_.flags = cold_start_ ? kSnapshotConverging : 0;
+  snapshot_.flags = (cold_start_ ? kSnapshotConverging : 0u) |
+                    (phases_->releasing(model_time_s_ - phases_from_s_) ? kSnapshotReleasing : 0u);
   if (leak_)
     leak_->save_state(std::span<double, est::LeakDetector::kStateSize>(
         snapshot_.leak_detector.data(), est::LeakDetector::kStateSize));

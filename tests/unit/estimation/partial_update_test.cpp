@@ -121,6 +121,22 @@ TEST_CASE("state phases: the augmented states' gain ramps from 0 to 1 after the 
   const est::StatePhases resumed(model.layout(), {}, 0.0, 0.0, 120.0);
   resumed.apply(ekf, 1.0);
   CHECK(ekf.gain_weight(1) == 1.0);
+  CHECK_FALSE(resumed.releasing(1.0));
+  // Resumed from a checkpoint saved before the release was complete: the ramp from the resume.
+  const est::StatePhases ramp = est::StatePhases::resumed_ramp(model.layout(), 120.0);
+  ramp.apply(ekf, 0.0);
+  CHECK_FALSE(ekf.considered(1));
+  CHECK(ekf.gain_weight(1) == 0.0);
+  ramp.apply(ekf, 90.0);
+  CHECK(ekf.gain_weight(1) == Approx(0.75));
+  CHECK(ramp.releasing(90.0));
+  ramp.apply(ekf, 120.0);
+  CHECK(ekf.gain_weight(1) == 1.0);
+  CHECK_FALSE(ramp.releasing(120.0));
+  // What a checkpoint records (kSnapshotReleasing): held or ramping until the ramp's end.
+  CHECK(phases.releasing(300.0));
+  CHECK(phases.releasing(630.0));
+  CHECK_FALSE(phases.releasing(720.0));
 
   // Mid-ramp, an update moves the parameter by the weight times its full step.
   phases.apply(ekf, 660.0);
