@@ -69,11 +69,17 @@ void Daemon::start() {
   supervisor_->start();
 
   const std::int64_t start = monotonic_ns();
+  const auto units = static_cast<std::int64_t>(pipelines_.size());
   for (std::size_t i = 0; i < pipelines_.size(); ++i) {
     pipelines_[i]->start();
     // The first cycle one wall period after start: the poller has read every point by then.
+    // Unit i of n is then due i/n of its period later: cycles that fall due at one instant
+    // queue behind each other on a core, so with the ticks aligned the last of n units finished
+    // n cycle times after its tick (scale_bench, 10 heat pumps on one core: 102 ms median for
+    // 12 ms of work each) and a gateway that had the CPU for all of them still missed deadlines.
     const std::int64_t period = pipelines_[i]->wall_period_ns();
-    schedulers_.push_back(std::make_unique<FixedRateScheduler>(start + period, period));
+    const std::int64_t phase = period / units * static_cast<std::int64_t>(i);
+    schedulers_.push_back(std::make_unique<FixedRateScheduler>(start + period + phase, period));
   }
   for (std::size_t i = 0; i < pipelines_.size(); ++i)
     threads_.emplace_back([this, i] { run_unit(i); });

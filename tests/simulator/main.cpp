@@ -66,6 +66,9 @@ void usage(std::FILE* to) {
       "  --write-points F H  no Modbus server: simulate H model hours as fast as possible and\n"
       "                      write every step's point values as a points CSV (the format\n"
       "                      hvac-twin-replay and hvac-twin-calibrate read), then exit\n"
+      "  --any-unit-id       answer requests for every Modbus unit id, not only the unit's\n"
+      "                      (one simulated plant serving many configured units: scale_bench)\n"
+      "  --max-clients N     TCP connections served at once (default 16)\n"
       "  --duration S        stop after S wall seconds (default: run until SIGINT/SIGTERM)\n"
       "  --quiet             no progress lines\n"
       "\n"
@@ -107,6 +110,8 @@ struct Args {
   std::string config, unit, truth_csv, points_csv;
   double points_hours = 0.0;
   long port = -1;
+  long max_clients = 16;
+  bool any_unit_id = false;
   double time_scale = 0.0, duration = 0.0;
   bool quiet = false;
   hvac_twin::sim::SimOptions sim;
@@ -127,6 +132,8 @@ bool parse(int argc, char** argv, Args& a) {
       a.sim.truth_closures = false;
     } else if (arg == "--commissioning") {
       a.sim.scenario.commissioning = true;
+    } else if (arg == "--any-unit-id") {
+      a.any_unit_id = true;
     } else if (v == nullptr) {
       return false;
     } else if (arg == "--config") {
@@ -142,6 +149,9 @@ bool parse(int argc, char** argv, Args& a) {
       if (!(a.points_hours > 0.0)) return false;
     } else if (arg == "--port") {
       a.port = std::stol(take());
+    } else if (arg == "--max-clients") {
+      a.max_clients = std::stol(take());
+      if (a.max_clients < 1 || a.max_clients > 1000) return false;
     } else if (arg == "--seed") {
       a.sim.seed = std::stoull(take());
     } else if (arg == "--time-scale") {
@@ -274,6 +284,8 @@ int main(int argc, char** argv) {
     hvac_twin::test_support::ModbusTestServerOptions so;
     so.port = static_cast<std::uint16_t>(args.port >= 0 ? args.port : unit->modbus.port);
     so.unit_id = unit->modbus.unit_id;
+    so.max_clients = static_cast<int>(args.max_clients);
+    if (args.any_unit_id) so.unit_id_policy = hvac_twin::test_support::UnitIdPolicy::kAnswerAny;
     hvac_twin::test_support::ModbusTestServer server(so);
     std::vector<double> values(unit->points.size());
     auto publish = [&] {
