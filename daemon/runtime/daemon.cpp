@@ -1,6 +1,7 @@
 #include "daemon/runtime/daemon.hpp"
 
 #include <spdlog/fmt/fmt.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <string>
@@ -93,6 +94,7 @@ void Daemon::run_unit(std::size_t index) {
   UnitPipeline& pipeline = *pipelines_[index];
   FixedRateScheduler& scheduler = *schedulers_[index];
   RepeatLog overruns(kRepeatLogIntervalNs);
+  supervisor_->attach_thread(index, ::gettid());
   Tick tick;
   while (scheduler.wait_next(tick)) {
     supervisor_->cycle_started(index, tick.woke_ns);

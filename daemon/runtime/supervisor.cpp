@@ -1,8 +1,11 @@
 #include "daemon/runtime/supervisor.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 
 #include "daemon/runtime/clock.hpp"
 
@@ -34,6 +37,29 @@ void CycleSupervisor::stop() {
   }
   stop_cv_.notify_all();
   if (thread_.joinable()) thread_.join();
+}
+
+std::int64_t thread_runqueue_wait_ns(pid_t tid) {
+  char path[64];
+  std::snprintf(path, sizeof path, "/proc/self/task/%d/schedstat", static_cast<int>(tid));
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  char text[128];
+  const ssize_t n = ::read(fd, text, sizeof text - 1);
+  ::close(fd);
+  if (n <= 0) return -1;
+  text[n] = '\0';
+  // "<ns on the CPU> <ns waiting on a run queue> <timeslices>"
+  char* end = nullptr;
+  std::strtoll(text, &end, 10);
+  if (end == text) return -1;
+  char* const wait_begin = end;
+  const long long wait = std::strtoll(wait_begin, &end, 10);
+  return end == wait_begin || wait < 0 ? -1 : static_cast<std::int64_t>(wait);
+}
+
+void CycleSupervisor::attach_thread(std::size_t unit, pid_t tid) {
+  units_[unit].tid.store(tid);
 }
 
 void CycleSupervisor::cycle_started(std::size_t unit, std::int64_t now_ns) {
@@ -101,8 +127,21 @@ void CycleSupervisor::run() {
         u.hang_reported = false;
         continue;
       }
-      const std::int64_t running = now - started;
+      const pid_t tid = u.tid.load();
+      const auto waited_so_far = [&]() -> std::int64_t {
+        return tid != 0 && options_.runqueue_wait_ns ? options_.runqueue_wait_ns(tid) : -1;
+      };
+      if (started != u.seen_start_ns) {  // a new cycle: its thread's run-queue delay from here
+        u.seen_start_ns = started;
+        u.wait_at_seen_ns = waited_so_far();
+      }
+      std::int64_t running = now - started;
       if (running <= options_.hang_timeout_ns || u.hang_reported) continue;
+      if (u.wait_at_seen_ns >= 0) {  // starved, not hung: the time it waited for a CPU
+        const std::int64_t waited = waited_so_far();
+        if (waited >= u.wait_at_seen_ns) running -= waited - u.wait_at_seen_ns;
+        if (running <= options_.hang_timeout_ns) continue;
+      }
       u.hang_reported = true;
       hangs_.fetch_add(1);
       if (on_hang_) on_hang_(i, running);

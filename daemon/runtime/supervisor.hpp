@@ -11,11 +11,19 @@
 // cycle is reported once through the callback; with hang_exit the process then exits with
 // status 70 (EX_SOFTWARE) so that its supervisor (systemd's Restart=on-failure) restarts it even
 // when no systemd watchdog is configured.
+// Time the cycle's thread spent runnable but waiting for a CPU (the kernel's run-queue delay,
+// /proc/self/task/<tid>/schedstat) does not count: a cycle starved by an overloaded CPU is late
+// (an overrun, counted and reported), not hung. A deadlocked cycle sleeps and one in an endless
+// loop runs; both still count. Without it, 200 heat-pump units starting together on one core
+// shared it until one first cycle had taken 30 s of wall time, and the daemon exited 70 at every
+// start (scale_bench): a restart loop instead of a late but working service.
 //
 // Threads: cycle_started()/cycle_finished() from each unit's cycle thread (a short lock, no
 // allocation); start()/stop() from the owner. on_hang runs on the supervisor thread; on_pings on
 // the cycle thread inside cycle_finished(), after the lock is released.
 #pragma once
+
+#include <sys/types.h>
 
 #include <atomic>
 #include <condition_variable>
@@ -30,12 +38,19 @@
 
 namespace hvac_twin::runtime {
 
+// The kernel's run-queue delay of thread `tid` of this process so far [ns] (the second field of
+// /proc/self/task/<tid>/schedstat); -1 if unavailable. No allocation.
+std::int64_t thread_runqueue_wait_ns(pid_t tid);
+
 struct SupervisorOptions {
   std::int64_t hang_timeout_ns = 30'000'000'000;
   bool hang_exit = true;
   int overrun_limit = 3;                  // consecutive overruns that stop the pings
   std::int64_t min_ping_interval_ns = 0;  // pings no more often than this
   std::int64_t check_interval_ns = 100'000'000;
+  // The run-queue delay of a thread so far [ns], or -1 if unknown (then a cycle's wall time is
+  // its running time); default: the kernel's schedstat. Tests put in their own.
+  std::function<std::int64_t(pid_t)> runqueue_wait_ns = thread_runqueue_wait_ns;
 };
 
 // A change in whether overruns withhold the pings. Only the unit whose cycle just finished can
@@ -63,6 +78,9 @@ class CycleSupervisor {
   void start();
   void stop();
 
+  // From a unit's cycle thread before its first cycle: the thread whose run-queue delay is
+  // discounted from that unit's cycles (none registered: wall time only).
+  void attach_thread(std::size_t unit, pid_t tid);
   void cycle_started(std::size_t unit, std::int64_t now_ns);
   // Returns true when this call sent WATCHDOG=1.
   bool cycle_finished(std::size_t unit, std::int64_t now_ns, bool overrun);
@@ -74,9 +92,13 @@ class CycleSupervisor {
  private:
   struct UnitState {
     std::atomic<std::int64_t> cycle_start_ns{0};  // 0 = not in a cycle
+    std::atomic<pid_t> tid{0};                    // the cycle thread; 0 = not attached
     bool hang_reported = false;                   // supervisor thread only
-    bool progressed = false;                      // guarded by mutex_
-    int consecutive_overruns = 0;                 // guarded by mutex_
+    // Supervisor thread only: the cycle it last saw start, and its thread's run-queue delay then.
+    std::int64_t seen_start_ns = 0;
+    std::int64_t wait_at_seen_ns = -1;
+    bool progressed = false;       // guarded by mutex_
+    int consecutive_overruns = 0;  // guarded by mutex_
   };
   void run();
 

@@ -1,5 +1,7 @@
 #include "daemon/runtime/supervisor.hpp"
 
+#include <unistd.h>
+
 #include <atomic>
 #include <catch2/catch.hpp>
 #include <chrono>
@@ -181,4 +183,45 @@ TEST_CASE("a cycle running past the hang timeout is reported once", "[supervisor
   CHECK(reports == 1);
   CHECK(reported_for > 100'000'000);
   CHECK(sup.hangs() == 1);
+}
+
+TEST_CASE("a cycle starved of the CPU is not hung: its run-queue delay does not count",
+          "[supervisor]") {
+  NotifyEnv env;
+  const SystemdNotifier n;
+  auto o = quiet_options();
+  o.hang_timeout_ns = 100'000'000;
+  o.check_interval_ns = 10'000'000;
+  // The cycle thread waits for a CPU the whole time, then (starved = false) only runs.
+  const std::int64_t t0 = monotonic_ns();
+  std::atomic<bool> starved{true};
+  std::atomic<std::int64_t> frozen_wait{0};
+  o.runqueue_wait_ns = [&](pid_t) -> std::int64_t {
+    if (starved) frozen_wait = monotonic_ns() - t0;
+    return frozen_wait;
+  };
+  std::atomic<int> reports{0};
+  CycleSupervisor sup(1, n, o, [&](std::size_t, std::int64_t) { ++reports; });
+  sup.attach_thread(0, 4242);
+  sup.start();
+  sup.cycle_started(0, t0);
+  std::this_thread::sleep_for(400ms);  // four hang timeouts of wall time, all spent waiting
+  CHECK(reports == 0);
+  CHECK(sup.hangs() == 0);
+  starved = false;  // from now on the time counts
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (reports == 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(5ms);
+  sup.stop();
+  CHECK(reports == 1);
+}
+
+TEST_CASE("the run-queue delay of a thread is read from the kernel", "[supervisor]") {
+  const std::int64_t first = thread_runqueue_wait_ns(::gettid());
+  REQUIRE(first >= 0);  // Debian's kernels keep schedstat (CONFIG_SCHED_INFO)
+  volatile double sink = 0.0;
+  for (int i = 0; i < 1'000'000; ++i)
+    sink = sink + 1.0;
+  CHECK(thread_runqueue_wait_ns(::gettid()) >= first);
+  CHECK(thread_runqueue_wait_ns(999'999'999) == -1);  // no such thread
 }
