@@ -15,8 +15,8 @@
 // /proc/self/task/<tid>/schedstat) does not count: a cycle starved by an overloaded CPU is late
 // (an overrun, counted and reported), not hung. A deadlocked cycle sleeps and one in an endless
 // loop runs; both still count. Without it, 200 heat-pump units starting together on one core
-// shared it until one first cycle had taken 30 s of wall time, and the daemon exited 70 at every
-// start (scale_bench): a restart loop instead of a late but working service.
+// shared it until one first cycle had taken 30 s of wall time, and the daemon exited 70 at start
+// (scale_bench; under systemd a restart loop) instead of running late.
 //
 // Threads: cycle_started()/cycle_finished() from each unit's cycle thread (a short lock, no
 // allocation); start()/stop() from the owner. on_hang runs on the supervisor thread; on_pings on
