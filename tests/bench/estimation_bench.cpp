@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/bench/bench_stats.hpp"
 #include "tests/bench/calibrated_start.hpp"
 #include "tests/bench/estimation_run.hpp"
 #include "tests/bench/svg_plot.hpp"
@@ -53,12 +54,7 @@ using bench::FilterRun;
 
 namespace {
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double last = static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::min(last, p * static_cast<double>(v.size())))];
-}
+using hvac_twin::bench::percentile;
 
 struct Args {
   double hours = 24.0, period = 5.0;

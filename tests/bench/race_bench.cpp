@@ -46,6 +46,7 @@
 #include "daemon/estimation/ekf.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/heat_pump/hp_layout.hpp"
+#include "tests/bench/bench_stats.hpp"
 #include "tests/bench/heat_pump_scenario.hpp"
 #include "tests/support/transition_distance.hpp"
 
@@ -54,15 +55,10 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+using hvac_twin::bench::percentile;
+
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double last = static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::min(last, p * static_cast<double>(v.size())))];
 }
 
 // CVODES's own corrector, where the build has a choice (before issue 13 it was the only one).

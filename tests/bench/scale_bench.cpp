@@ -38,10 +38,13 @@
 
 #include "io/dds/participant.hpp"
 #include "io/dds/subscriber.hpp"
+#include "tests/bench/bench_stats.hpp"
 #include "tests/integration/process.hpp"
 #include "tests/support/scratch_dir.hpp"
 
 namespace {
+
+using hvac_twin::bench::percentile;
 
 using hvac_twin::test::Process;
 using Clock = std::chrono::steady_clock;
@@ -155,13 +158,6 @@ void write_json(const std::string& path, const nlohmann::json& j) {
   std::ofstream(path) << j.dump(2) << '\n';
 }
 
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  const auto k = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
 // A unit's health samples: `cycle` is the tick index (a skipped tick advances it), so the
 // cycles run are the samples with a new index.
 struct UnitTrack {
@@ -246,10 +242,11 @@ Row run_one(const Args& a, int n, int sim_cpu, int daemon_cpu) {
     }
     const auto now = Clock::now();
     if (!measuring) {
-      const bool warm = now >= warm_up_min && static_cast<int>(units.size()) == n &&
-                        std::all_of(units.begin(), units.end(), [&](const auto& kv) {
-                          return kv.second.cycle >= static_cast<std::uint64_t>(a.warm_up_cycles);
-                        });
+      const auto warmed = [&](const auto& kv) {
+        return kv.second.cycle >= static_cast<std::uint64_t>(a.warm_up_cycles);
+      };
+      const auto n_warm = static_cast<int>(std::count_if(units.begin(), units.end(), warmed));
+      const bool warm = now >= warm_up_min && n_warm == n;
       if (warm) {
         measuring = true;
         measure_start = now;
@@ -259,13 +256,8 @@ Row run_one(const Args& a, int n, int sim_cpu, int daemon_cpu) {
         for (auto& [name, u] : units)
           u.start_overruns = u.overruns;
       } else if (now > warm_up_end) {
-        std::fprintf(stderr, "scale_bench: %zu of %d units ran %d cycles within the warm-up\n",
-                     static_cast<std::size_t>(std::count_if(
-                         units.begin(), units.end(),
-                         [&](const auto& kv) {
-                           return kv.second.cycle >= static_cast<std::uint64_t>(a.warm_up_cycles);
-                         })),
-                     n, a.warm_up_cycles);
+        std::fprintf(stderr, "scale_bench: %d of %d units ran %d cycles within the warm-up\n",
+                     n_warm, n, a.warm_up_cycles);
         return row;
       }
     } else if (now >= measure_end) {
