@@ -122,7 +122,10 @@ const LeakReport& LeakDetector::step_with(double t, double leak, double sigma, d
   report_.rate_cusum = std::max(0.0, report_.rate_cusum + z - k_);
   if (use_charge) {
     const double c = c_sum_ / z_time_, c_var = c_var_sum_ / z_time_;
-    const std::size_t b = band(f_sum_ / z_time_);
+    report_.interval_charge = c;
+    report_.interval_charge_sigma = std::sqrt(c_var);
+    report_.interval_speed_hz = f_sum_ / z_time_;
+    const std::size_t b = band(report_.interval_speed_hz);
     if (!report_.reference_learned) {
       band_sum_[b] += c * z_time_;
       band_time_[b] += z_time_;

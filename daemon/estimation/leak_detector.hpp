@@ -47,6 +47,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string_view>
 
@@ -94,6 +95,11 @@ struct LeakReport {
   double charge_statistic = 0.0;   // the last decision's z_c [sigma]
   double charge_reference = -1.0;  // C_ref of the last decision's band [charge unit]; -1: none
   bool reference_learned = false;  // the reference period is over
+  // The last decision's interval means: the charge estimate and its sigma [charge unit] (NaN
+  // when the charge is not judged) and the compressor speed [Hz]. For checking the design.
+  double interval_charge = std::numeric_limits<double>::quiet_NaN();
+  double interval_charge_sigma = std::numeric_limits<double>::quiet_NaN();
+  double interval_speed_hz = 0.0;
 };
 
 class LeakDetector {

@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/bench/bench_stats.hpp"
 #include "tests/bench/leak_scenario.hpp"
 
 using namespace hvac_twin;
@@ -50,6 +51,40 @@ std::string hours(double s) {
   if (s < 0.0) return "-";
   std::snprintf(b, sizeof b, "%.1f", s / 3600.0);
   return b;
+}
+
+// The in-control decisions of a run (before its leak started): the statistics the two CUSUMs
+// sum, and the charge deficit they are made of, against the design's assumptions.
+void print_in_control(const std::string& name, const bench::LeakRunResult& r) {
+  std::vector<double> z, zc, deficit_g;
+  for (const auto& d : r.decision_log) {
+    if (d.leaking) continue;
+    z.push_back(d.z);
+    if (d.reference > 0.0) {
+      zc.push_back(d.zc);
+      deficit_g.push_back(1e3 * (d.reference - d.charge));
+    }
+  }
+  const bench::SeriesStats a = bench::series_stats(z), b = bench::series_stats(zc),
+                           c = bench::series_stats(deficit_g);
+  std::printf(
+      "%s: in control (%zu decisions before any leak; the design assumes mean 0, sd 1, lag-1 r "
+      "0): leak-rate z mean %.2f sd %.2f r1 %.2f max %.2f; charge z_c (%zu judged) mean %.2f sd "
+      "%.2f r1 %.2f max %.2f; deficit C_ref - charge mean %.1f g sd %.1f g max %.1f g\n",
+      name.c_str(), a.n, a.mean, a.sd, a.r1, a.max, b.n, b.mean, b.sd, b.r1, b.max, c.mean, c.sd,
+      c.max);
+}
+
+void write_decisions(const std::string& path, const bench::LeakRunResult& r) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) return;
+  std::fprintf(f,
+               "t_h,z,charge_kg,charge_sigma_kg,speed_hz,reference_kg,zc,truth_charge_kg,"
+               "leaking\n");
+  for (const auto& d : r.decision_log)
+    std::fprintf(f, "%.4f,%.4f,%.6f,%.6f,%.2f,%.6f,%.4f,%.6f,%d\n", d.t_s / 3600.0, d.z, d.charge,
+                 d.charge_sigma, d.speed_hz, d.reference, d.zc, d.truth_charge, d.leaking ? 1 : 0);
+  std::fclose(f);
 }
 
 }  // namespace
@@ -161,6 +196,8 @@ int main(int argc, char** argv) {
     if (trace != nullptr) std::fclose(trace);
     if (failures != nullptr) std::fclose(failures);
     const auto& r = results.back();
+    if (!trace_dir.empty())
+      write_decisions(trace_dir + "/leak_bench_" + row.id + "_decisions.csv", r);
     std::printf(
         "  %s: %.1f simulated h in %.0f s (%.1f ms per filter step, median); %ld failed filter "
         "steps, %ld restarts from the measured conditions, %ld covariance resets, %ld updates "
@@ -168,6 +205,7 @@ int main(int argc, char** argv) {
         "rate)\n",
         row.name.c_str(), r.simulated_s / 3600.0, r.wall_s, r.step_ms_median, r.filter_failures,
         r.restarts, r.covariance_resets, r.lost_updates, 1e3 * r.stopped_drift_max);
+    print_in_control("    " + row.name, r);
     std::fflush(stdout);
   }
 

@@ -88,6 +88,17 @@ struct LeakRunOptions {
   std::FILE* failure_dump = nullptr;
 };
 
+// One decision of the detector: its interval means, what it judged, and the truth then.
+struct LeakDecision {
+  double t_s = 0.0;
+  double z = 0.0;                                           // the leak-rate statistic [sigma]
+  double charge = 0.0, charge_sigma = 0.0, speed_hz = 0.0;  // interval means [kg], [Hz]
+  double reference = -1.0;  // C_ref of the band [kg]; -1: not judged on the charge
+  double zc = 0.0;          // the charge-deficit statistic when judged [sigma]
+  double truth_charge = 0.0;
+  bool leaking = false;  // the truth leaked during the interval's end
+};
+
 struct LeakRunResult {
   double simulated_s = 0.0, wall_s = 0.0;
   double step_ms_median = 0.0;
@@ -120,6 +131,7 @@ struct LeakRunResult {
   std::uint64_t decisions = 0;
   std::uint64_t charge_decisions = 0;  // decisions that judged the charge deficit
   est::LeakReport last;
+  std::vector<LeakDecision> decision_log;
 };
 
 // What the daemon runs: the model layout's noise and bounds (set for leak detection in
@@ -283,11 +295,15 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
         detector.step(t_end, y[kLeakRate], sigma[kLeakRate], y[kCharge], own_sigma[kCharge],
                       u[kCompressorSpeed], !ok || !fused);
     r.held_s[static_cast<std::size_t>(rep.hold)] += o.period_s;
+    const bool leaking = o.leak_g_per_h > 0.0 && t_end > o.leak_start_s;
     if (rep.decisions > r.decisions) {
       r.decisions = rep.decisions;
       if (rep.charge_reference > 0.0) ++r.charge_decisions;
+      r.decision_log.push_back({t_end, rep.statistic, rep.interval_charge,
+                                rep.interval_charge_sigma, rep.interval_speed_hz,
+                                rep.charge_reference, rep.charge_statistic, truth.x()[truth_charge],
+                                leaking});
     }
-    const bool leaking = o.leak_g_per_h > 0.0 && t_end > o.leak_start_s;
     if (rep.state != prev_state && rep.state != est::LeakState::kNormal) {
       if (!leaking) {
         if (rep.state == est::LeakState::kSuspect) ++r.false_suspect;

@@ -271,6 +271,9 @@ TEST_CASE("the charge is judged against the reference of its compressor-speed ba
   for (int k = 0; k < 200; ++k)
     d.step(t++, 0.0, 0.4, 0.52, 0.001, 85.0, false);
   CHECK(d.report().charge_reference == -1.0);
+  CHECK(d.report().interval_charge == Approx(0.52));  // the last decision's means
+  CHECK(d.report().interval_charge_sigma == Approx(0.001));
+  CHECK(d.report().interval_speed_hz == Approx(85.0));
   CHECK(d.reference_charge(85.0) == -1.0);
   CHECK(d.reference_charge(25.0) == Approx(0.54));
   CHECK(d.reference_charge(39.9) == Approx(0.54));  // the 20-40 Hz band
