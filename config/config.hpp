@@ -68,7 +68,7 @@ struct ModelConfig {
   std::string type;                          // required; a model of the catalog, e.g. "zone_rc"
   std::map<std::string, double> parameters;  // name -> value in the parameter's unit; omitted
                                              // parameters take the model's defaults
-  std::string file;  // type "fmu": the FMU's absolute path (JSON "fmu")
+  std::string file;                          // type "fmu": the FMU's absolute path (JSON "fmu")
 };
 
 // Which filter runs the unit (JSON "ekf" | "constrained_ekf" | "constrained_enkf").
@@ -92,6 +92,9 @@ struct LeakDetectionConfig {
   // The charge estimate's in-control wander within a speed band, as a fraction of the
   // nameplate charge (0: the charge-deficit statistic off).
   double charge_allowance = 0.02;
+  // The in-control standard deviation of an interval's charge deficit (beyond the filter's own
+  // sigma), as a fraction of the nameplate charge: the charge statistic's scale (0: the allowance).
+  double charge_noise = 0.006;
   double reference_s = 64800.0;     // judgeable time the reference charges are learnt over [s]
   double reference_band_hz = 20.0;  // width of the compressor-speed bands [Hz]
 };

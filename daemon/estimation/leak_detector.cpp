@@ -40,21 +40,33 @@ double LeakDetector::arl0(double k, double h) {
   return (std::exp(b) - b - 1.0) / (2.0 * k * k);
 }
 
-LeakDetector::LeakDetector(const LeakDetectorOptions& options)
-    : options_(options), k_(0.5 * options.design_shift_sigma) {
-  // The threshold whose in-control run length is the designed time between false alarms,
-  // counted in decisions (ARL0 grows monotonically with h: bisection). Two statistics that may
-  // each raise the alarm get twice the time each.
-  const double statistics = options.charge_allowance > 0.0 ? 2.0 : 1.0;
-  const double decisions =
-      statistics * options.false_alarm_interval_days * 86400.0 / std::max(options.interval_s, 1.0);
+namespace {
+
+// The threshold whose in-control run length (Siegmund) is `decisions` for reference value k:
+// ARL0 grows monotonically with h, so bisection.
+double threshold_for(double k, double decisions) {
   double lo = 0.0, hi = 100.0;
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (lo + hi);
-    (arl0(k_, mid) < decisions ? lo : hi) = mid;
+    (LeakDetector::arl0(k, mid) < decisions ? lo : hi) = mid;
   }
-  h_ = hi;
+  return hi;
+}
+
+}  // namespace
+
+LeakDetector::LeakDetector(const LeakDetectorOptions& options)
+    : options_(options), k_(0.5 * options.design_shift_sigma) {
+  // The designed time between false alarms, counted in decisions. Two statistics that may each
+  // raise the alarm get twice the time each.
+  const double statistics = options.charge_allowance > 0.0 ? 2.0 : 1.0;
+  const double decisions =
+      statistics * options.false_alarm_interval_days * 86400.0 / std::max(options.interval_s, 1.0);
+  h_ = threshold_for(k_, decisions);
   report_.threshold = h_;
+  charge_noise_ = options.charge_noise > 0.0 ? options.charge_noise : options.charge_allowance;
+  if (options.charge_allowance > 0.0)
+    charge_scale_ = h_ / threshold_for(options.charge_allowance / charge_noise_, decisions);
 }
 
 const LeakReport& LeakDetector::step(double t, double leak, double sigma, double compressor_hz,
@@ -134,10 +146,11 @@ const LeakReport& LeakDetector::step_with(double t, double leak, double sigma, d
       report_.charge_reference = -1.0;
     } else if (band_time_[b] > 0.0) {
       report_.charge_reference = band_sum_[b] / band_time_[b];
-      const double a = options_.charge_allowance;
-      const double zc = (report_.charge_reference - c) / std::sqrt(a * a + c_var);
+      const double s = std::sqrt(charge_noise_ * charge_noise_ + c_var);
+      const double zc = (report_.charge_reference - c) / s;
       report_.charge_statistic = zc;
-      report_.charge_cusum = std::max(0.0, report_.charge_cusum + zc - k_);
+      report_.charge_cusum = std::max(
+          0.0, report_.charge_cusum + charge_scale_ * (zc - options_.charge_allowance / s));
     } else {
       report_.charge_reference = -1.0;  // a band the reference never saw: not judged
     }

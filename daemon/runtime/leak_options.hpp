@@ -7,8 +7,8 @@
 
 namespace hvac_twin::runtime {
 
-// The allowance is configured as a fraction of the nameplate charge [kg]; the detector takes it
-// in the charge's unit.
+// The allowance and the charge noise are configured as fractions of the nameplate charge [kg]; the
+// detector takes them in the charge's unit.
 inline est::LeakDetectorOptions leak_detector_options(const config::LeakDetectionConfig& c,
                                                       double nameplate_charge_kg) {
   est::LeakDetectorOptions o;
@@ -21,6 +21,7 @@ inline est::LeakDetectorOptions leak_detector_options(const config::LeakDetectio
   o.max_starts_per_hour = c.max_starts_per_hour;
   o.sigma_floor = c.leak_sigma_floor;
   o.charge_allowance = c.charge_allowance * nameplate_charge_kg;
+  o.charge_noise = c.charge_noise * nameplate_charge_kg;
   o.reference_s = c.reference_s;
   o.reference_band_hz = c.reference_band_hz;
   return o;

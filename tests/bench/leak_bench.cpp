@@ -87,11 +87,66 @@ void write_decisions(const std::string& path, const bench::LeakRunResult& r) {
   std::fclose(f);
 }
 
+// A run's decision log replayed through a detector with `options`: the logged interval means
+// fed as one constant stretch of interval_s each, so every call is one decision (no warm-up or
+// start-up hold: the log holds only judged decisions). The same options reproduce the run's
+// alarms; others show what another design would have decided on the same estimates.
+void replay_decisions(const std::string& name, const std::string& path,
+                      est::LeakDetectorOptions options, double leak_start_h) {
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  if (f == nullptr) {
+    std::printf("%s: cannot read %s\n", name.c_str(), path.c_str());
+    return;
+  }
+  options.warm_up_s = options.startup_s = 0.0;
+  est::LeakDetector d(options);
+  char line[512];
+  bool first = true;
+  double t = 0.0, max_rate = 0.0, max_charge = 0.0, suspect_h = -1.0, leak_h = -1.0;
+  int n = 0;
+  std::vector<double> in_control_zc;        // judged on the charge
+  (void)!std::fgets(line, sizeof line, f);  // the header
+  while (std::fgets(line, sizeof line, f) != nullptr) {
+    double t_h = 0, z = 0, c = 0, cs = 0, hz = 0, ref = 0, zc = 0, truth = 0;
+    int leaking = 0;
+    if (std::sscanf(line, "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d", &t_h, &z, &c, &cs, &hz, &ref, &zc,
+                    &truth, &leaking) != 9)
+      continue;
+    if (first) {  // starts the detector: no time accumulated yet
+      t = t_h * 3600.0 - options.interval_s;
+      d.step(t, z, 1.0, c, cs, hz, false);
+      first = false;
+    }
+    t += options.interval_s;
+    const est::LeakReport& r = d.step(t, z, 1.0, c, cs, hz, false);
+    ++n;
+    if (leaking == 0) {
+      if (r.charge_reference > 0.0) in_control_zc.push_back(r.charge_statistic);
+      max_rate = std::max(max_rate, r.rate_cusum);
+      max_charge = std::max(max_charge, r.charge_cusum);
+    } else {
+      if (suspect_h < 0.0 && r.state != est::LeakState::kNormal) suspect_h = t_h;
+      if (leak_h < 0.0 && r.state == est::LeakState::kLeak) leak_h = t_h;
+    }
+  }
+  std::fclose(f);
+  const bench::SeriesStats z = bench::series_stats(in_control_zc);
+  std::printf(
+      "%s (replayed, %d decisions, threshold %.2f): in control largest S_rate %.2f, S_charge %.2f, "
+      "z_c mean %.2f sd %.2f r1 %.2f max %.2f (%zu judged); SUSPECT %s h, LEAK %s h after the "
+      "leak's start\n",
+      name.c_str(), n, d.threshold(), max_rate, max_charge, z.mean, z.sd, z.r1, z.max, z.n,
+      suspect_h < 0.0 ? "-" : hours(3600.0 * (suspect_h - leak_start_h)).c_str(),
+      leak_h < 0.0 ? "-" : hours(3600.0 * (leak_h - leak_start_h)).c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   bool quick = false;
-  std::string only = "abc", trace_dir;
+  std::string only = "abc", trace_dir, replay_dir;
+  double band_hz = -1.0, allowance = -1.0,
+         charge_noise = -1.0;  // --band-hz, --allowance: the detector's, if set
   double period = 5.0;
   double days_a = 7.0;     // --days-a: the length of scenario (a) in the long form
   double off_from = -1.0;  // --off-from: the night set-back's clock hour (4 h long); -1: 01:00
@@ -106,6 +161,14 @@ int main(int argc, char** argv) {
       period = std::atof(next().c_str());
     else if (a == "--trace-dir")
       trace_dir = next();
+    else if (a == "--replay")
+      replay_dir = next();
+    else if (a == "--band-hz")
+      band_hz = std::atof(next().c_str());
+    else if (a == "--allowance")
+      allowance = std::atof(next().c_str());
+    else if (a == "--charge-noise")
+      charge_noise = std::atof(next().c_str());
     else if (a == "--days-a")
       days_a = std::atof(next().c_str());
     else if (a == "--off-from")
@@ -122,7 +185,8 @@ int main(int argc, char** argv) {
       std::fprintf(
           stderr,
           "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
-          "[--days-a D] [--off-from H] [--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
+          "[--replay DIR] [--band-hz W] [--allowance FRACTION] [--days-a D] [--off-from H] "
+          "[--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
       return 2;
     }
   }
@@ -132,6 +196,9 @@ int main(int argc, char** argv) {
   const double nameplate_g = 1e3 * bench::kNameplateChargeKg;
   const double fast = nameplate_g * 0.10 / 24.0, slow = nameplate_g * 0.02 / 24.0;  // g/h
   if (quick) base = bench::short_form(base);
+  if (band_hz > 0.0) base.detector.reference_band_hz = band_hz;
+  if (allowance >= 0.0) base.detector.charge_allowance = allowance * bench::kNameplateChargeKg;
+  if (charge_noise >= 0.0) base.detector.charge_noise = charge_noise * bench::kNameplateChargeKg;
   if (off_from >= 0.0) {
     base.operation.off_from_h = off_from;
     base.operation.off_to_h = off_from + 4.0;
@@ -164,12 +231,15 @@ int main(int argc, char** argv) {
       "constrained EKF on the daemon's model (12 cells, heat_pump_scenario.hpp), period %.0f s, "
       "adaptive noise [%.2f, %.2f]\n"
       "detector: CUSUMs on the leak-rate estimate (sigma floor %.2f g/h) and on the charge "
-      "deficit (allowance %.1f g, reference over %.1f h judged; 0: off), a decision per %.0f "
+      "deficit (allowance %.1f g counted in units of %.1f g, reference over %.1f h judged; 0: "
+      "off), a decision per %.0f "
       "min of judgeable operation, design shift %.1f sigma, one false alarm per %.0f days "
       "designed (threshold %.2f sigma); warm-up %.0f min, hold %.0f min after a start, cycling "
       "above %.0f starts/h\n",
       quick ? "short" : "long", period, bench::adaptive_noise_min, bench::adaptive_noise_max,
       base.detector.sigma_floor, 1e3 * base.detector.charge_allowance,
+      1e3 * (base.detector.charge_noise > 0.0 ? base.detector.charge_noise
+                                              : base.detector.charge_allowance),
       base.detector.reference_s / 3600.0, base.detector.interval_s / 60.0,
       base.detector.design_shift_sigma, base.detector.false_alarm_interval_days, probe.threshold(),
       base.detector.warm_up_s / 60.0, base.detector.startup_s / 60.0,
@@ -182,6 +252,12 @@ int main(int argc, char** argv) {
         "figures.\n");
   std::fflush(stdout);
 
+  if (!replay_dir.empty()) {  // the detector alone, over the decision logs of earlier runs
+    for (const auto& row : rows)
+      replay_decisions(row.name, replay_dir + "/leak_bench_" + row.id + "_decisions.csv",
+                       row.options.detector, row.options.leak_start_s / 3600.0);
+    return 0;
+  }
   std::vector<bench::LeakRunResult> results;
   for (auto& row : rows) {
     std::FILE *trace = nullptr, *failures = nullptr;

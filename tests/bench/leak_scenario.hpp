@@ -138,12 +138,12 @@ struct LeakRunResult {
 // plant_models/heat_pump/heat_pump.cpp, from runs of this benchmark), and the detector as the
 // daemon builds it from its configuration's defaults (config/config.hpp, LeakDetectionConfig;
 // runtime::leak_detector_options): the charge-deficit CUSUM with an allowance of 2 % of the
-// nameplate charge (10 g) over speed-band references averaged over 18 h of judgeable
-// operation, and a 0.1 g/h sigma floor. Before the
-// layout was set so (charge random walk 1e-6 kg/sqrt(s), leak rate >= 0 at 0.01 g/h/sqrt(s),
-// charge <= nameplate) a 46 g loss moved the charge estimate by 3 g and 22 h of a 2.08 g/h leak
-// raised no alarm.
-// The nameplate charge of heat_pump_r32 at its default parameters, truth and filter alike [kg].
+// nameplate charge (10 g), counted in units of its in-control noise (0.6 %, 3 g), over
+// speed-band references averaged over 18 h of judgeable operation, and a 0.1 g/h sigma floor.
+// Before the layout was set so (charge random walk 1e-6 kg/sqrt(s), leak rate >= 0 at 0.01
+// g/h/sqrt(s), charge <= nameplate) a 46 g loss moved the charge estimate by 3 g and 22 h of a 2.08
+// g/h leak raised no alarm. The nameplate charge of heat_pump_r32 at its default parameters, truth
+// and filter alike [kg].
 inline constexpr double kNameplateChargeKg = 0.5;
 
 inline LeakRunOptions daemon_settings() {

@@ -43,6 +43,7 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
     CHECK(e.leak_detection.interval_s == 1800.0);
     CHECK(e.leak_detection.false_alarm_interval_days == 3650.0);
     CHECK(e.leak_detection.charge_allowance == 0.02);
+    CHECK(e.leak_detection.charge_noise == 0.006);
     CHECK(e.leak_detection.reference_s == 64800.0);
   }
   auto& est = j["units"][0]["estimator"];
@@ -50,7 +51,7 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
   est["leak_detection"] = {{"interval_s", 600},        {"false_alarm_interval_days", 365},
                            {"max_starts_per_hour", 6}, {"charge_allowance", 0},
                            {"reference_s", 7200},      {"reference_band_hz", 10},
-                           {"leak_sigma_floor", 0.5}};
+                           {"leak_sigma_floor", 0.5},  {"charge_noise", 0.01}};
   {
     const auto r = load_json(j);
     require_ok(r);
@@ -64,11 +65,16 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
     CHECK(e.leak_detection.reference_s == 7200.0);
     CHECK(e.leak_detection.reference_band_hz == 10.0);
     CHECK(e.leak_detection.leak_sigma_floor == 0.5);
+    CHECK(e.leak_detection.charge_noise == 0.01);
   }
   est["leak_detection"]["charge_allowance"] = 1.5;
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/charge_allowance",
                        {"[0, 1]", "got 1.5"});
   est["leak_detection"]["charge_allowance"] = 0.02;
+  est["leak_detection"]["charge_noise"] = -0.01;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/charge_noise",
+                       {"[0, 1]", "got -0.01"});
+  est["leak_detection"]["charge_noise"] = 0.006;
   est["leak_detection"]["reference_band_hz"] = 0.5;
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/reference_band_hz",
                        {"[1, 1000]", "got 0.5"});
