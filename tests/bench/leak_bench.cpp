@@ -2,12 +2,18 @@
 // filter runs, printed as one table. The scenarios, the truth and the filter are
 // tests/bench/leak_scenario.hpp; leak_acceptance_test asserts the same properties in short form.
 //
-//   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--days-a D]
-//              [--off-from H] [--no-augment NAME]...
+//   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--replay DIR]
+//              [--band-hz W] [--allowance F] [--charge-noise F] [--days-a D] [--off-from H]
+//              [--adaptive-noise MIN:MAX] [--no-augment NAME]...
 //
-// --trace-dir DIR writes DIR/leak_bench_X.csv per scenario (a line per 5 simulated minutes) and
+// --trace-dir DIR writes DIR/leak_bench_X.csv per scenario (a line per 5 simulated minutes),
+// DIR/leak_bench_X_decisions.csv (each decision's interval means) and
 // DIR/leak_bench_X_failures.txt: the filter's state and inputs before the first failed prediction
 // of each run of failures, to replay it alone.
+// --replay DIR runs only the detector, over the decision logs an earlier --trace-dir run wrote:
+// seconds instead of hours, to judge another detector design (--band-hz, --allowance and
+// --charge-noise, fractions of the nameplate charge, change the daemon's defaults) on the same
+// estimates.
 //
 // Long form (the acceptance figures):
 //   (a) seven days of normal operation: daily outdoor cycle, day/night setpoints, internal
@@ -28,8 +34,10 @@
 // "10 % in 2 h"), (c) 10 g/h (24x, "2 % per hour"). A faster leak is found sooner: the short
 // delays are not the acceptance figures.
 // The filter and the detector are what the daemon runs (leak_scenario.hpp, daemon_settings()).
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -91,27 +99,32 @@ void write_decisions(const std::string& path, const bench::LeakRunResult& r) {
 // fed as one constant stretch of interval_s each, so every call is one decision (no warm-up or
 // start-up hold: the log holds only judged decisions). The same options reproduce the run's
 // alarms; others show what another design would have decided on the same estimates.
-void replay_decisions(const std::string& name, const std::string& path,
+bool replay_decisions(const std::string& name, const std::string& path,
                       est::LeakDetectorOptions options, double leak_start_h) {
   std::FILE* f = std::fopen(path.c_str(), "r");
   if (f == nullptr) {
-    std::printf("%s: cannot read %s\n", name.c_str(), path.c_str());
-    return;
+    std::fprintf(stderr, "leak_bench: cannot read %s: %s\n", path.c_str(), std::strerror(errno));
+    return false;
   }
   options.warm_up_s = options.startup_s = 0.0;
   est::LeakDetector d(options);
   char line[512];
   bool first = true;
   double t = 0.0, max_rate = 0.0, max_charge = 0.0, suspect_h = -1.0, leak_h = -1.0;
-  int n = 0;
+  int n = 0, line_no = 1;
   std::vector<double> in_control_zc;        // judged on the charge
   (void)!std::fgets(line, sizeof line, f);  // the header
   while (std::fgets(line, sizeof line, f) != nullptr) {
+    ++line_no;
     double t_h = 0, z = 0, c = 0, cs = 0, hz = 0, ref = 0, zc = 0, truth = 0;
     int leaking = 0;
     if (std::sscanf(line, "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d", &t_h, &z, &c, &cs, &hz, &ref, &zc,
-                    &truth, &leaking) != 9)
-      continue;
+                    &truth, &leaking) != 9) {
+      std::fprintf(stderr, "leak_bench: %s:%d: expected 9 numbers (t_h,z,charge_kg,...,leaking)\n",
+                   path.c_str(), line_no);
+      std::fclose(f);
+      return false;
+    }
     if (first) {  // starts the detector: no time accumulated yet
       t = t_h * 3600.0 - options.interval_s;
       d.step(t, z, 1.0, c, cs, hz, false);
@@ -138,6 +151,7 @@ void replay_decisions(const std::string& name, const std::string& path,
       name.c_str(), n, d.threshold(), max_rate, max_charge, z.mean, z.sd, z.r1, z.max, z.n,
       suspect_h < 0.0 ? "-" : hours(3600.0 * (suspect_h - leak_start_h)).c_str(),
       leak_h < 0.0 ? "-" : hours(3600.0 * (leak_h - leak_start_h)).c_str());
+  return true;
 }
 
 }  // namespace
@@ -145,8 +159,8 @@ void replay_decisions(const std::string& name, const std::string& path,
 int main(int argc, char** argv) {
   bool quick = false;
   std::string only = "abc", trace_dir, replay_dir;
-  double band_hz = -1.0, allowance = -1.0,
-         charge_noise = -1.0;  // --band-hz, --allowance: the detector's, if set
+  // --band-hz, --allowance, --charge-noise: the detector's, when set (negative: the default)
+  double band_hz = -1.0, allowance = -1.0, charge_noise = -1.0;
   double period = 5.0;
   double days_a = 7.0;     // --days-a: the length of scenario (a) in the long form
   double off_from = -1.0;  // --off-from: the night set-back's clock hour (4 h long); -1: 01:00
@@ -182,11 +196,10 @@ int main(int argc, char** argv) {
     } else if (a == "--no-augment")  // the filter considers this parameter instead
       bench::filter_parameters()["augment_" + next()] = 0;
     else {
-      std::fprintf(
-          stderr,
-          "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
-          "[--replay DIR] [--band-hz W] [--allowance FRACTION] [--days-a D] [--off-from H] "
-          "[--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
+      std::fprintf(stderr,
+                   "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
+                   "[--replay DIR] [--band-hz W] [--allowance F] [--charge-noise F] [--days-a D] "
+                   "[--off-from H] [--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
       return 2;
     }
   }
@@ -253,10 +266,12 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
 
   if (!replay_dir.empty()) {  // the detector alone, over the decision logs of earlier runs
+    bool ok = true;
     for (const auto& row : rows)
-      replay_decisions(row.name, replay_dir + "/leak_bench_" + row.id + "_decisions.csv",
-                       row.options.detector, row.options.leak_start_s / 3600.0);
-    return 0;
+      ok = replay_decisions(row.name, replay_dir + "/leak_bench_" + row.id + "_decisions.csv",
+                            row.options.detector, row.options.leak_start_s / 3600.0) &&
+           ok;
+    return ok ? 0 : 1;
   }
   std::vector<bench::LeakRunResult> results;
   for (auto& row : rows) {
