@@ -142,8 +142,9 @@ struct LeakRunResult {
 // speed-band references averaged over 18 h of judgeable operation, and a 0.1 g/h sigma floor.
 // Before the layout was set so (charge random walk 1e-6 kg/sqrt(s), leak rate >= 0 at 0.01
 // g/h/sqrt(s), charge <= nameplate) a 46 g loss moved the charge estimate by 3 g and 22 h of a 2.08
-// g/h leak raised no alarm. The nameplate charge of heat_pump_r32 at its default parameters, truth
-// and filter alike [kg].
+// g/h leak raised no alarm.
+//
+// The nameplate charge of heat_pump_r32 at its default parameters, truth and filter alike [kg].
 inline constexpr double kNameplateChargeKg = 0.5;
 
 inline LeakRunOptions daemon_settings() {

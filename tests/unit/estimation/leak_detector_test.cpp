@@ -256,7 +256,7 @@ TEST_CASE("the charge deficit: a reference first, then only a deficit beyond the
 TEST_CASE("the charge noise scales the deficit beyond the allowance", "[leak]") {
   // The same growing deficit (1 g per decision) counted in units of the allowance (10 g, the
   // design with the noise unset) and of a measured in-control noise of 2.5 g.
-  const auto decisions_to_leak = [](double noise, double wander) {
+  const auto decisions_to_leak = [](double noise) {
     auto o = every_second(17520.0);
     o.charge_allowance = 0.010;
     o.charge_noise = noise;
@@ -266,8 +266,8 @@ TEST_CASE("the charge noise scales the deficit beyond the allowance", "[leak]") 
     for (int k = 0; k < 11; ++k)  // the reference: 0.54
       d.step(t++, 0.0, 0.4, 0.54, 0.001, 50.0, false);
     REQUIRE(d.report().reference_learned);
-    for (int k = 0; k < 500; ++k)  // a wander within the allowance: never accumulates
-      d.step(t++, 0.0, 0.4, 0.54 - wander * (k % 2), 0.001, 50.0, false);
+    for (int k = 0; k < 500; ++k)  // a wander within the allowance (9 g): never accumulates
+      d.step(t++, 0.0, 0.4, 0.54 - 0.009 * (k % 2), 0.001, 50.0, false);
     CHECK(d.report().charge_cusum == 0.0);
     CHECK(d.report().state == LeakState::kNormal);
     double c = 0.54;
@@ -280,9 +280,9 @@ TEST_CASE("the charge noise scales the deficit beyond the allowance", "[leak]") 
     CHECK(d.report().threshold == Approx(LeakDetector(every_second(17520.0 * 2.0)).threshold()));
     return n;
   };
-  const int by_allowance = decisions_to_leak(0.0, 0.009);
-  const int by_noise = decisions_to_leak(0.0025, 0.009);
-  CHECK(by_allowance == decisions_to_leak(0.010, 0.009));  // noise = allowance: the same design
+  const int by_allowance = decisions_to_leak(0.0);
+  const int by_noise = decisions_to_leak(0.0025);
+  CHECK(by_allowance == decisions_to_leak(0.010));  // noise = allowance: the same design
   // Beyond the allowance after 10 decisions; then (deficit - 10 g) / 2.5 g = 0.4, 0.8 on a
   // threshold designed for k = 4 (h_c 0.58) gives LEAK at the 12th, against the 19th when the
   // allowance is the scale ((deficit - 10 g) / 10 g = 0.1, 0.2, ... on h = 4.4).
