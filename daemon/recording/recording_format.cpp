@@ -1,5 +1,6 @@
 #include "daemon/recording/recording_format.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -144,7 +145,12 @@ std::size_t encode_record(std::uint64_t cycle, std::uint64_t ticks_since_last,
     put(at, s.value);
     put(at, static_cast<std::uint8_t>(s.quality));
     put(at, s.exception_code);
-    put(at, s.read_time_ns == 0 ? std::int64_t{-1} : now_monotonic_ns - s.read_time_ns);
+    // A read that completed after the cycle took `now` (the poller's thread runs beside the
+    // cycle) is as fresh as a reading can be: age 0. Written as it was, negative, it made the
+    // record implausible to the decoder, and a replay of a loaded gateway's recording stopped
+    // there (seen under CI load, 0.2 ms).
+    put(at, s.read_time_ns == 0 ? std::int64_t{-1}
+                                : std::max<std::int64_t>(0, now_monotonic_ns - s.read_time_ns));
   }
   const std::span<const std::byte> payload(out.data() + kRecordPreambleBytes,
                                            payload_size(samples.size()));
@@ -179,16 +185,18 @@ bool decode_payload(std::span<const std::byte> payload, RecordedCycle& out, std:
     s.value = get<double>(at);
     const auto quality = get<std::uint8_t>(at);
     s.exception_code = get<std::uint8_t>(at);
+    // -1: never read. Below it: a read after the cycle's clock reading, as daemons before
+    // encode_record() clamped it wrote (a fresh reading: the cycle's own time, below).
     const auto age = get<std::int64_t>(at);
     // An age beyond the timestamp's range would overflow timestamp - age (undefined behaviour).
-    if (quality > static_cast<std::uint8_t>(modbus::PointQuality::kOutOfRange) || age < -1 ||
+    if (quality > static_cast<std::uint8_t>(modbus::PointQuality::kOutOfRange) ||
         (age > 0 && out.timestamp_ns < std::numeric_limits<std::int64_t>::min() + age)) {
       why = "a point's quality " + std::to_string(quality) + " or age " + std::to_string(age) +
             " is not valid";
       return false;
     }
     s.quality = static_cast<modbus::PointQuality>(quality);
-    s.read_time_ns = age < 0 ? 0 : out.timestamp_ns - age;
+    s.read_time_ns = age == -1 ? 0 : age < 0 ? out.timestamp_ns : out.timestamp_ns - age;
   }
   return true;
 }

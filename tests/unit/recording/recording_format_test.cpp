@@ -3,6 +3,7 @@
 #include <bit>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -163,6 +164,40 @@ TEST_CASE("a record's bytes are laid out as recording_format.hpp documents", "[r
   CHECK(std::memcmp(h.data(), "HTWREC01", 8) == 0);
   CHECK(at<std::uint32_t>(h, 8) == h.size() - 16);
   CHECK(at<std::uint32_t>(h, 12) == runtime::crc32c(std::span(h).subspan(16)));
+}
+
+// The poller's thread runs beside the cycle: a read may complete after the cycle took its clock
+// reading. Such a point was recorded with a negative age and the decoder refused the record, so a
+// replay of a loaded gateway's recording stopped there (seen under CI load: age -213397 ns).
+TEST_CASE("a point read after the cycle's clock reading is recorded fresh and reads back",
+          "[recording]") {
+  test::ScratchDir dir("recording-fresh");
+  auto c = test::make_cycle(7, kPoints);
+  REQUIRE(c.samples[1].read_time_ns != 0);
+  c.samples[1].read_time_ns = c.now_ns + 213'397;
+  const auto b = test::encode(c);
+  const std::size_t age_at = 8 + 32 + 18 * 1 + 10;  // point 1's age field
+  CHECK(at<std::int64_t>(b, age_at) == 0);
+
+  // As a daemon before the clamp wrote it: the negative age, its checksum valid.
+  auto old = b;
+  const std::int64_t negative = -213'397;
+  std::memcpy(old.data() + age_at, &negative, sizeof negative);
+  test::reseal_record(old, 0, recording::payload_size(kPoints));
+
+  const auto header = test::recording_header(kPoints);
+  for (const auto& record : {b, old}) {
+    std::vector<std::byte> file = recording::encode_header(header);
+    test::append(file, record);
+    const std::string path = dir / "fresh.htrec";
+    test::write_bytes(path, file);
+    RecordingReader reader(path);
+    RecordedCycle got;
+    REQUIRE(reader.next(got));
+    CHECK(got.samples[1].read_time_ns == c.timestamp_ns);  // read at the cycle's own time
+    CHECK(got.samples[2].read_time_ns == c.timestamp_ns - (c.now_ns - c.samples[2].read_time_ns));
+    CHECK(got.samples[1].value == c.samples[1].value);
+  }
 }
 
 TEST_CASE("a last record cut at any byte is a torn tail: the records before it read, no error",
