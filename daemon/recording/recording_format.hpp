@@ -8,7 +8,9 @@
 //     u64 cycle (tick index), u64 ticks since the last cycle, i64 timestamp (CLOCK_REALTIME ns),
 //     u32 point count, u8 flags (bit 0: Modbus connected), 3 bytes zero,
 //     per point: f64 value, u8 quality (modbus::PointQuality), u8 exception code,
-//                i64 age of the value at the cycle [ns] (-1: never read).
+//                i64 age of the value at the cycle [ns] (-1: never read; 0 for a read that
+//                completed after the cycle took its clock reading; older daemons wrote such a
+//                read as a negative age, which reads as 0).
 // A record is written whole or, after a crash, torn: the reader skips a torn last record and
 // refuses a damaged one before the end, naming the file, the record and its byte offset.
 #pragma once
