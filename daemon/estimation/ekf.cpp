@@ -41,7 +41,7 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   P_ = P_good_ = P_initial_ = P_prior_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
   y_try_ = Eigen::VectorXd::Zero(m);
   H_ = Eigen::MatrixXd::Zero(m, n);
-  y_ = ydot_ = lag_var_ = Eigen::VectorXd::Zero(m);
+  y_ = Eigen::VectorXd::Zero(m);
   ph_ = k_ = bh_ = Eigen::VectorXd::Zero(n);
   max_var_ = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
   const auto& states = model.layout().states;
@@ -58,7 +58,6 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   held_.assign(max_measurements, 0);
   x_buf_.assign(n_, 0.0);
   init_consider(model.layout());
-  any_lag_ = std::any_of(model_lag_.begin(), model_lag_.end(), [](double s) { return s > 0.0; });
   if (options_.constrained) build_constraints();
 }
 
@@ -191,7 +190,6 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   if (model_.output_jacobian(span_of(x_), u, span_of(y_), span_of(H_)) != plant::kModelOk)
     return StepStatus::kModelError;
   x_prior_ = x_;
-  timing_variance(u);
 
   // Test every measurement against the prior, as the published innovations are.
   std::size_t available = 0;
@@ -225,7 +223,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
       streaks_.disarm(i);  // fused by the gate
     else if (streaks_.armed(i))
       streaks_.keep_armed(i);  // let in by a reset
-    fuse(z[i].output, reports[i].innovation, variance_of(z[i]));
+    fuse(z[i].output, reports[i].innovation,
+         std::max(z[i].variance, options_.min_measurement_variance));
     ++counters_.fused;
   }
   if (reset) retest_held(z, reports, count);
@@ -272,7 +271,7 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
     if (mz.output < m_) rep.predicted = y_(o);  // also for one not offered (a stuck sensor)
     if (!rep.available) continue;
     ++available;
-    const double r = variance_of(mz);
+    const double r = std::max(mz.variance, options_.min_measurement_variance);
     ph_.noalias() = P_ * H_.row(o).transpose();
     rep.innovation = mz.value - y_(o);
     rep.innovation_variance = H_.row(o).dot(ph_) + r;
@@ -309,7 +308,8 @@ bool Ekf::readmission_due(std::span<const Measurement> z,
     if (!reports[i].rejected || !streaks_.take_due(i)) continue;  // take_due() backs off
     const auto o = static_cast<Eigen::Index>(z[i].output);
     ph_.noalias() = P_initial_ * H_.row(o).transpose();
-    const double s0 = H_.row(o).dot(ph_) + variance_of(z[i]);
+    const double s0 =
+        H_.row(o).dot(ph_) + std::max(z[i].variance, options_.min_measurement_variance);
     if (reports[i].innovation * reports[i].innovation / s0 <= options_.nis_gate) due = true;
   }
   return due;
@@ -321,7 +321,7 @@ void Ekf::retest_held(std::span<const Measurement> z, std::span<MeasurementRepor
     MeasurementReport& rep = reports[i];
     if (held_[i] < 0 || !rep.available) continue;
     const auto o = static_cast<Eigen::Index>(z[i].output);
-    const double r = variance_of(z[i]);
+    const double r = std::max(z[i].variance, options_.min_measurement_variance);
     const double nu = rep.innovation - H_.row(o).dot(x_ - x_prior_);
     ph_.noalias() = P_ * H_.row(o).transpose();
     const double s = H_.row(o).dot(ph_) + r;
@@ -345,21 +345,6 @@ void Ekf::retest_held(std::span<const Measurement> z, std::span<MeasurementRepor
       ++counters_.fused;
     }
   }
-}
-
-void Ekf::timing_variance(std::span<const double> u) {
-  lag_var_.setZero();
-  if (!any_lag_ || model_.rhs(span_of(x_), u, span_of(xdot_)) != plant::kModelOk) return;
-  ydot_.noalias() = H_ * xdot_;
-  for (Eigen::Index o = 0; o < static_cast<Eigen::Index>(m_); ++o) {
-    const double e = model_lag_[static_cast<std::size_t>(o)] * ydot_(o);
-    if (std::isfinite(e)) lag_var_(o) = e * e;
-  }
-}
-
-double Ekf::variance_of(const Measurement& mz) const {
-  const double r = std::max(mz.variance, options_.min_measurement_variance);
-  return mz.output < m_ ? r + lag_var_(static_cast<Eigen::Index>(mz.output)) : r;
 }
 
 void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {

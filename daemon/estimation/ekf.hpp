@@ -4,9 +4,7 @@
 // sensitivities (exact to integrator tolerance); P⁻ = F P Fᵀ + Q_d with the trapezoidal
 // discretisation Q_d = (F Q_c Fᵀ + Q_c) dt/2 of the continuous random-walk intensities Q_c.
 // Update: every available measurement is tested against the prior (innovation ν = z - h(x⁻),
-// S = H P⁻ Hᵀ + R, test ratio NIS = ν²/S, gate χ²₁; R is the point's noise and its output's
-// timing error in a transient, (SignalInfo::model_lag_s · ẏ)², ẏ = H f(x⁻, u)); the accepted ones
-// are fused one scalar at a
+// S = H P⁻ Hᵀ + R, test ratio NIS = ν²/S, gate χ²₁); the accepted ones are fused one scalar at a
 // time, linearised at x⁻ (ν_k = z_k - h_k(x⁻) - H_k (x - x⁻)), which equals the batch update for
 // diagonal R, with the Joseph form for P. After each step the health check requires x and P
 // finite and P symmetric positive definite (Cholesky); otherwise the last good (x, P) is restored
@@ -125,12 +123,6 @@ class Ekf final : public Estimator {
   std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
                    std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
-  // The outputs' timing-error variances at the prior, (SignalInfo::model_lag_s * dy/dt)^2 with
-  // dy/dt = H f(x⁻, u) (zero when the model declares none, or its rhs fails).
-  void timing_variance(std::span<const double> u);
-  // A measurement's variance as the filter uses it: its own (at least min_measurement_variance)
-  // and its output's timing error at the prior.
-  [[nodiscard]] double variance_of(const Measurement& mz) const;
   // The only available point has been rejected max_consecutive_rejections times in a row: the
   // filter is running on its model alone. Arms the point for readmission_due(), due now.
   void arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count);
@@ -162,10 +154,8 @@ class Ekf final : public Estimator {
   Eigen::MatrixXd P_prior_;               // P before this update's fusion (after a reset: P0)
   Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
   std::uint64_t step_backs_ = 0;
-  Eigen::MatrixXd H_;               // m x n output Jacobian at x⁻
-  Eigen::VectorXd y_;               // h(x⁻)
-  Eigen::VectorXd ydot_, lag_var_;  // dy/dt at x⁻, and the timing-error variance per output
-  bool any_lag_ = false;
+  Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
+  Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;
   Eigen::MatrixXd b_;
   Eigen::VectorXd max_var_;

@@ -181,17 +181,14 @@ class Estimator {
       consider_[i] = layout.states[i].consider ? 1 : 0;
     model_error_.clear();
     model_error_rel_.clear();
-    model_lag_.clear();
     for (const auto& o : layout.outputs) {
       model_error_.push_back(o.model_error);
       model_error_rel_.push_back(o.model_error_rel);
-      model_lag_.push_back(o.model_lag_s);
     }
   }
   std::vector<char> consider_;
   std::vector<double> gain_weight_;                    // per state, 0 to 1 (set_gain_weight)
   std::vector<double> model_error_, model_error_rel_;  // per output
-  std::vector<double> model_lag_;                      // per output (SignalInfo::model_lag_s)
 
   // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A
   // checkpoint has already been checked by its loader; this guards every other caller.

@@ -8,7 +8,7 @@
 //     <State initialStd= processNoise= [augmented= consider= calibrate= heldWhileSettling=
 //            persistent="true"] [excitedBy="<input name>" excitationMin=]/>
 //   in an output's:
-//     <Output modelError= modelErrorRel= modelLag=/>
+//     <Output modelError= modelErrorRel=/>
 //   in <VendorAnnotations>, the constraints beyond the state bounds:
 //     <Constraint name= over="states|outputs" bound= [whileInput= whileAbove=]>
 //       <Term variable="<state or output name>" coefficient=/>...

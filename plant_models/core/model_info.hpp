@@ -79,16 +79,6 @@ struct SignalInfo {
   // measurement noise's part).
   double model_error = 0.0;
   double model_error_rel = 0.0;
-  // Outputs sensors measure: the model's timing error at this output [s], one sigma. In a
-  // transient the model's output leads or lags the plant's (cells moving a phase boundary in
-  // steps, lumped walls), an error of about model_lag_s * dy/dt that vanishes in steady
-  // operation. The EKF adds (model_lag_s * dy/dt)^2 to the point's measurement variance, with
-  // dy/dt = H f(x, u) at the prior: the model's own rate, which is where its cells jump. (The
-  // sensor's rate instead, from consecutive readings beyond their noise, was tried on the
-  // heat pump's recorded starts: the plant's outlet walls move smoothly while the model's
-  // jump, and two of the three runs lost the condenser-outlet wall again.) Its price: while an
-  // estimate far off relaxes, its fast-moving outputs count less, and it recovers more slowly.
-  double model_lag_s = 0.0;
 };
 
 // A physical constraint  sum_k coeff_k v_k <= bound,  over states (linear in the state, exact)

@@ -431,20 +431,6 @@ ModelLayout HeatPumpR32::make_layout() const {
     l.outputs[o].model_error_rel = rel;
   };
   structural(kCharge, 0.0, 0.04);
-  // The condenser-outlet wall, in a transient, leads or lags the plant's by about 5 s (one
-  // sigma): the cells move the subcooled zone's boundary in steps. At a compressor start the
-  // 12-cell model's coil-outlet walls followed the 20-cell plant's 0.9 K (condenser) and 2.2 K
-  // (evaporator) RMS apart in its first 150 s, against 0.22 and 0.28 K once steady (NIS 6.3
-  // and 3.0, then 1.1 and 1.0; tests/data/release_under_load). Fused at their sensor noise
-  // alone, a start's readings carried the charge estimate from 0.50 to 0.58-0.60 kg in 40 s,
-  // and the condenser-outlet wall (or the discharge pressure) was then gated out for good: 2 of
-  // 4 runs of lost_track_test beside two busy cores. With this timing error the three recorded
-  // runs replay with every point kept, the charge 0.50-0.57 kg (0.47-0.59 without), and 4 runs
-  // of 4 passed under the same load; estimation_bench --short is unchanged on the nominal truth.
-  // The evaporator-outlet wall's too (5 s) halved the golden replay's errors again, but in
-  // estimation_bench its NIS fell from 1.37 to 0.29 and a 1 K bias on that sensor (NIS 5.3,
-  // flagged HIGH) was absorbed (NIS 1.3): not declared.
-  l.outputs[kCondWallTempOut].model_lag_s = 5.0;
   structural(kSuperheat, 0.5, 0.0);
   structural(kSubcooling, 0.1, 0.0);
   structural(kValveInletEnthalpy, 0.2, 0.0);

@@ -137,9 +137,9 @@ std::string state_annotation(const plant::ModelLayout& l, const plant::StateInfo
 }
 
 std::string output_annotation(const plant::SignalInfo& s) {
-  if (s.model_error == 0.0 && s.model_error_rel == 0.0 && s.model_lag_s == 0.0) return {};
+  if (s.model_error == 0.0 && s.model_error_rel == 0.0) return {};
   return "<Output modelError=\"" + number(s.model_error) + "\" modelErrorRel=\"" +
-         number(s.model_error_rel) + "\" modelLag=\"" + number(s.model_lag_s) + "\"/>";
+         number(s.model_error_rel) + "\"/>";
 }
 
 // The constraints beyond the state bounds, their terms by variable name.

@@ -212,8 +212,7 @@ plant::ModelLayout fmu_layout(const ModelDescription& d, const plant::ParameterM
     const FmuVariable& v = d.variables[i];
     layout.outputs.push_back({v.name, unit(v.unit), v.min, v.max, plant::kRequired, v.description,
                               tool_number(v, "modelError", 0.0),
-                              tool_number(v, "modelErrorRel", 0.0),
-                              tool_number(v, "modelLag", 0.0)});
+                              tool_number(v, "modelErrorRel", 0.0)});
   }
   for (const ToolConstraint& t : d.constraints)
     layout.constraints.push_back(constraint_of(t, layout));

@@ -1,7 +1,5 @@
 // The published sigma of an output carries the model's structural error in it
-// (SignalInfo::model_error, model_error_rel) in quadrature with the filter's own, in both filters;
-// the EKF tests and fuses a measured output with its timing error in a transient
-// (SignalInfo::model_lag_s).
+// (SignalInfo::model_error, model_error_rel) in quadrature with the filter's own, in both filters.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <vector>
@@ -33,31 +31,5 @@ TEST_CASE("published sigmas add each output's structural model error", "[ekf][en
     CHECK(sigma[1] == Approx(std::hypot(own, 0.3, 0.1 * y[1])).epsilon(1e-12));
     CHECK(sigma[1] > own + 0.3);
     CHECK(sigma[0] == Approx(0.5).epsilon(0.1));  // the EnKF's sample spread, 400 members
-  }
-}
-
-// y = 3x, x' = rate, a 5 s timing error on y: S = 9 P + r + (5 * 3 * rate)^2 at the prior, and
-// nothing added while the model stands still. A reading 0.6 off, 6 sigma of the prior with r
-// alone, is then fused, as a transient's reading should be, with the smaller gain that S gives.
-TEST_CASE("the EKF adds an output's timing error in a transient to its measurement variance",
-          "[ekf]") {
-  const plant::AdModel<test::LaggingRamp> model{test::LaggingRamp{}};
-  const std::vector<double> q{0.0}, x0{1.0}, s0{0.03};
-  const double r = 0.01;
-  for (const double rate : {0.0, 0.01}) {
-    INFO("rate " << rate);
-    est::Ekf ekf(model, q, 1, est::EkfOptions{});
-    ekf.reset(x0, s0);
-    const std::vector<double> u{rate};
-    est::Measurement m{.output = 0, .value = 3.0 + 0.6, .variance = r, .available = true};
-    est::MeasurementReport rep;
-    REQUIRE(ekf.update({&m, 1}, u, {&rep, 1}) == est::StepStatus::kOk);
-    const double lag = 5.0 * 3.0 * rate;
-    CHECK(rep.innovation_variance == Approx(9.0 * 0.03 * 0.03 + r + lag * lag).epsilon(1e-12));
-    CHECK(rep.fused == (rate > 0.0));  // 0.36 / 0.0181 = 19.9 without, 0.36 / 0.0406 = 8.9 with
-    if (rep.fused) {                   // the gain with the timing error in R: 3 P / S
-      const double s = 9.0 * 0.03 * 0.03 + r + lag * lag;
-      CHECK(ekf.state()(0) == Approx(1.0 + 3.0 * 0.03 * 0.03 / s * 0.6).epsilon(1e-9));
-    }
   }
 }

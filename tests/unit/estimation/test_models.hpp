@@ -47,28 +47,6 @@ struct StructuralError : RandomWalk {
   }
 };
 
-// x' = u (input "rate"), y = x, with a timing error of 5 s declared on y
-// (SignalInfo::model_lag_s): in a transient the model's y may lead or lag the plant's.
-struct LaggingRamp {
-  plant::ModelLayout layout() const {
-    plant::ModelLayout l;
-    l.states.push_back(plant::StateInfo{.name = "x", .unit = "1", .abs_tol = 1e-10});
-    l.inputs.push_back(plant::SignalInfo{.name = "rate", .unit = "1/s"});
-    l.outputs.push_back(plant::SignalInfo{.name = "y", .unit = "1", .model_lag_s = 5.0});
-    return l;
-  }
-  template <class S>
-  int rhs(std::span<const S>, std::span<const double> u, std::span<S> f) const {
-    f[0] = S(u[0]);
-    return plant::kModelOk;
-  }
-  template <class S>
-  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
-    y[0] = 3.0 * x[0];
-    return plant::kModelOk;
-  }
-};
-
 // x' = 0, y = sqrt(x): at x = 0 the output Jacobian is infinite, which poisons an update.
 struct SqrtSensor : RandomWalk {
   template <class S>

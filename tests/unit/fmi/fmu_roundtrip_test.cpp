@@ -62,7 +62,6 @@ void check_same_layout(const plant::ContinuousModel& fmu, const plant::Continuou
   for (std::size_t i = 0; i < a.outputs.size(); ++i) {
     CHECK(a.outputs[i].model_error == b.outputs[i].model_error);
     CHECK(a.outputs[i].model_error_rel == b.outputs[i].model_error_rel);
-    CHECK(a.outputs[i].model_lag_s == b.outputs[i].model_lag_s);
   }
   REQUIRE(a.constraints.size() == b.constraints.size());
   for (std::size_t i = 0; i < a.constraints.size(); ++i) {
@@ -325,9 +324,6 @@ TEST_CASE("the constrained EKF on the heat-pump FMU gives the built-in model's e
                                    << "), largest output sigma difference " << worst_sigma
                                    << " of itself");
   CHECK(moved > 0.1);
-  // Below 1e-6 before the condenser-outlet wall's timing error (SignalInfo::model_lag_s): its
-  // variance, (5 s * H f)^2 at the prior, carries the two models' round-off in f and H into the
-  // gain (measured since: 9.8e-6 and 9.6e-6).
-  CHECK(worst_x < 1e-4);
-  CHECK(worst_sigma < 1e-4);
+  CHECK(worst_x < 1e-6);
+  CHECK(worst_sigma < 1e-6);
 }
