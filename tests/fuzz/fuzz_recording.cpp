@@ -4,8 +4,8 @@
 // Invariants: an accepted header has the format version, a positive period and at most kMaxPoints
 // points; every record has the header's point count, a known quality, ticks since the last cycle
 // >= 1, and re-encodes to exactly its input bytes (a read time of 0 aside: an age of -1 or of
-// the whole timestamp); the records end at the end of the input or at a torn tail after them;
-// the end stays the end.
+// the whole timestamp; and an age below -1, an older daemon's, read as 0); the records end at the
+// end of the input or at a torn tail after them; the end stays the end.
 //
 // Random mutations almost never keep a CRC valid, so most inputs would stop at a checksum: each
 // input is also read "sealed", with the header's and every record's CRC rewritten to match its
@@ -68,13 +68,20 @@ void check(std::span<const std::byte> bytes) {
                                               again) == record);
       const std::byte* input = bytes.data() + offset;
       for (std::size_t i = 0; i < points; ++i) {
-        if (c.samples[i].read_time_ns != 0) continue;
-        // Read time 0 stands for never read (age -1) and for an age of the whole timestamp.
         const std::size_t age_at =
             rec::kRecordPreambleBytes + rec::kCycleBytes + i * rec::kPointBytes + 10;
         std::int64_t age;
         std::memcpy(&age, input + age_at, sizeof age);
-        HVAC_TWIN_FUZZ_CHECK(age == -1 || age == c.timestamp_ns);
+        if (age < -1) {
+          // An older daemon's read after the cycle's clock reading: read at the cycle's time
+          // (re-encoded as age 0).
+          HVAC_TWIN_FUZZ_CHECK(c.samples[i].read_time_ns == c.timestamp_ns);
+        } else if (c.samples[i].read_time_ns == 0) {
+          // Read time 0 stands for never read (age -1) and for an age of the whole timestamp.
+          HVAC_TWIN_FUZZ_CHECK(age == -1 || age == c.timestamp_ns);
+        } else {
+          continue;
+        }
         std::memcpy(again.data() + age_at, &age, sizeof age);
       }
       // The payload (its CRC checked by the reader) is canonical: no byte the decoder ignores.
