@@ -131,7 +131,7 @@ TEST_CASE("a daemon whose log reader is gone shuts down cleanly, not by SIGPIPE"
   // Issue 17: Ctrl-C on the demo ended its `sed`, which read the daemon's stderr, first; the
   // daemon's shut-down log line then killed it by SIGPIPE (status 141) in the middle of its
   // shut-down. Here its stderr is a FIFO whose only reader the test closes.
-  Stack stack("sigpipe", zone_stack_options(58));
+  Stack stack("sigpipe", zone_stack_options(73));
   stack.start_sim();
   const std::string fifo = stack.path("daemon.err");
   REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
@@ -159,7 +159,7 @@ TEST_CASE("SIGTERM while the configuration loads: exit 0 and a log line", "[inte
     return;
   }
   StackOptions o;
-  o.domain_id = 56;
+  o.domain_id = 71;
   // No device: the daemon must not get as far as needing one.
   o.customize = [](nlohmann::json& c) { c["units"][0]["modbus"]["port"] = 1; };
   Stack stack("sigterm-loading", o);
@@ -195,7 +195,7 @@ TEST_CASE("SIGTERM as soon as the daemon runs main: exit 0 and a log line", "[in
   // (polled in /proc), before the configuration has loaded or the units have started. (Before
   // main the dynamic loader runs for a few ms; a signal then still has its default action.)
   StackOptions o;
-  o.domain_id = 57;
+  o.domain_id = 72;
   Stack stack("sigterm-early", o);
   stack.write_config(1);  // no device: the daemon must not get as far as needing one
   Process daemon(HVAC_TWIND_EXE, {"--config", stack.path("config.json")}, stack.path("daemon.out"),

@@ -71,7 +71,7 @@ TEST_CASE(
   INFO(capture.error());
   REQUIRE(capture.error().empty());
 
-  StackOptions o = zone_stack_options(63);
+  StackOptions o = zone_stack_options(74);
   // The daemon's files come as systemd's LoadCredential= would hand them over, under the names
   // of systemd/dds-security.conf, in a directory named by CREDENTIALS_DIRECTORY.
   o.customize = [](nlohmann::json& c) {
