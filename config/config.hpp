@@ -107,6 +107,7 @@ struct EstimatorConfig {
   double deadline_s = 1.0;    // wall-time budget of one cycle [s]; an overrun degrades the cycle;
                               // <= period_s / runtime.time_scale and < runtime.hang_timeout_s
   double nis_gate = 10.83;    // per-measurement innovation gate, chi-square(1) at alpha = 1e-3
+  double robust_threshold = 2.0;       // Huber weight beyond this many innovation sigmas; 0 off
   int max_consecutive_rejections = 5;  // this many gate rejections in a row flag a point faulty;
                                        // most points rejected this often resets the covariance
   double settle_s = 0.0;  // model seconds the model runs at the first inputs before filtering

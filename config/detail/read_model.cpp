@@ -226,6 +226,7 @@ EstimatorConfig read_estimator(const Ref& ref, Errors& errors, const EstimatorCo
   const bool deadline_ok =
       r.number("deadline_s", e.deadline_s, closed(kMinTickS, kMaxDeadlineS), false, "s");
   r.number("nis_gate", e.nis_gate, positive());
+  r.number("robust_threshold", e.robust_threshold, at_least(0.0));
   r.integer("max_consecutive_rejections", e.max_consecutive_rejections, 1,
             kMaxConsecutiveRejections);
   r.number("settle_s", e.settle_s, closed(0.0, kMaxPeriodS), false, "s");

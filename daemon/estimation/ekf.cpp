@@ -224,7 +224,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     else if (streaks_.armed(i))
       streaks_.keep_armed(i);  // let in by a reset
     fuse(z[i].output, reports[i].innovation,
-         std::max(z[i].variance, options_.min_measurement_variance));
+         robust_variance(std::max(z[i].variance, options_.min_measurement_variance), reports[i],
+                         options_.robust_threshold));
     ++counters_.fused;
   }
   if (reset) retest_held(z, reports, count);

@@ -248,6 +248,10 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     if (reports[i].rejected && readmit_lone_point(i, z[i], u, reports[i])) fused_[f++] = i;
 
   if (f > 0) {
+    const auto fused_variance = [&](std::size_t k) {  // r, or wider beyond the robust threshold
+      return robust_variance(std::max(z[fused_[k]].variance, options_.min_measurement_variance),
+                             reports[fused_[k]], options_.robust_threshold);
+    };
     // Padded to the workspace size: unused slots are identity rows with zero innovations, so
     // the factorisation never changes size (and never allocates).
     const auto F = Ya_.rows();
@@ -257,7 +261,7 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     for (std::size_t k = 0; k < f; ++k) {
       const Measurement& mz = z[fused_[k]];
       const auto K = static_cast<Eigen::Index>(k), o = static_cast<Eigen::Index>(mz.output);
-      const double sd = std::sqrt(std::max(mz.variance, options_.min_measurement_variance));
+      const double sd = std::sqrt(fused_variance(k));
       Ya_.row(K) = Y_.row(o).array() - ymean_(o);
       for (std::size_t i = 0; i < N_; ++i) {
         const auto I = static_cast<Eigen::Index>(i);
@@ -267,8 +271,7 @@ StepStatus ConstrainedEnkf::update(std::span<const Measurement> z, std::span<con
     Pyy_.noalias() = Ya_ * Ya_.transpose();
     Pyy_ *= inv;
     for (std::size_t k = 0; k < f; ++k)
-      Pyy_(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)) +=
-          std::max(z[fused_[k]].variance, options_.min_measurement_variance);
+      Pyy_(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)) += fused_variance(k);
     for (auto k = static_cast<Eigen::Index>(f); k < F; ++k)
       Pyy_(k, k) = 1.0;
     Pxy_.noalias() = anomalies_ * Ya_.transpose();

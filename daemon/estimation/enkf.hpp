@@ -61,6 +61,9 @@ struct EnkfOptions {
   std::size_t threads = 2;  // workers, the calling thread included
   double inflation = 1.02;  // multiplies the anomalies at each predict
   double nis_gate = 10.83;
+  // Huber's c [innovation sigmas], as the EKF's (est::robust_variance): the perturbed
+  // observations and Pyy of a reading beyond it carry the widened variance. 0: off.
+  double robust_threshold = 2.0;
   int max_consecutive_rejections = 5;
   double min_measurement_variance = 1e-12;
   bool constrained = true;

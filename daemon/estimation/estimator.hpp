@@ -77,6 +77,14 @@ struct MeasurementReport {
   bool faulty = false;    // rejected max_consecutive_rejections times in a row
 };
 
+// The variance a reading the gate let in is fused with (both filters): its own, r, within c
+// innovation sigmas; beyond, Huber's weight, as if it were r + S (|ν|/√S / c - 1): the reading
+// moves the estimate c √S/|ν| as far, and the covariance keeps only what it gave. c <= 0: off.
+inline double robust_variance(double r, const MeasurementReport& rep, double c) {
+  if (!(c > 0.0) || !(rep.test_ratio > c * c)) return r;
+  return r + rep.innovation_variance * (std::sqrt(rep.test_ratio) / c - 1.0);
+}
+
 enum class StepStatus : std::uint8_t {
   kOk,
   kModelError,      // the model failed (predict: x kept, P inflated; update: nothing fused)

@@ -64,11 +64,13 @@ std::unique_ptr<est::Estimator> make_filter(const plant::ContinuousModel& model,
     opt.members = static_cast<std::size_t>(c.ensemble_members);
     opt.threads = static_cast<std::size_t>(c.threads);
     opt.nis_gate = c.nis_gate;
+    opt.robust_threshold = c.robust_threshold;
     opt.max_consecutive_rejections = c.max_consecutive_rejections;
     return std::make_unique<est::ConstrainedEnkf>(model, process_noise, measurements, opt);
   }
   est::EkfOptions opt;
   opt.nis_gate = c.nis_gate;
+  opt.robust_threshold = c.robust_threshold;
   opt.max_consecutive_rejections = c.max_consecutive_rejections;
   opt.constrained = c.type == config::EstimatorType::kConstrainedEkf;
   return std::make_unique<est::Ekf>(model, process_noise, measurements, opt);

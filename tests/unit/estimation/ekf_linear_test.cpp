@@ -57,7 +57,8 @@ TEST_CASE("EKF on the linear zone model equals the closed-form Kalman filter", "
   const std::vector<double> q{0.01, 0.002, 2.0};
   const double r = 0.05 * 0.05, dt = 300.0;
   auto opt = tight_options();
-  opt.nis_gate = 1e12;  // the textbook filter has no gate
+  opt.nis_gate = 1e12;         // the textbook filter has no gate
+  opt.robust_threshold = 0.0;  // and no Huber weight
   est::Ekf ekf(model, q, 1, opt);
   const std::vector<double> x0{19.0, 18.0, 200.0}, s0{1.0, 2.0, 300.0};
   ekf.reset(x0, s0);
@@ -155,4 +156,32 @@ TEST_CASE("EKF is consistent: time-averaged NIS inside the 95% chi-square band",
   INFO("time-averaged NIS " << nis);
   CHECK(nis > 0.914);
   CHECK(nis < 1.090);
+}
+
+// The Huber weight (EkfOptions::robust_threshold): x = 0 with P = 1 and a reading of noise r.
+// Within c = 2 innovation sigmas the textbook update; beyond, the reading is fused as if its
+// variance were R' = r + S (|ν|/√S / c - 1), the gain P / (P + R'), and the Joseph form's P the
+// covariance of that update, P R' / (P + R'). The gate's report keeps the prior's S.
+TEST_CASE("a reading beyond the robust threshold is fused with a Huber weight", "[ekf]") {
+  const plant::AdModel<test::RandomWalk> model{test::RandomWalk{}};
+  const std::vector<double> q{0.0}, x0{0.0}, s0{1.0};
+  const double r = 0.01, s = 1.0 + r;
+  for (const double z : {1.0, -1.5, 2.5, -3.2}) {
+    for (const double c : {2.0, 0.0}) {
+      INFO("reading " << z << ", threshold " << c);
+      est::EkfOptions o;
+      o.robust_threshold = c;
+      est::Ekf ekf(model, q, 1, o);
+      ekf.reset(x0, s0);
+      est::Measurement m{.output = 0, .value = z, .variance = r, .available = true};
+      est::MeasurementReport rep;
+      REQUIRE(ekf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+      REQUIRE(rep.fused);
+      CHECK(rep.innovation_variance == Approx(s).epsilon(1e-12));
+      const double ratio = std::abs(z) / std::sqrt(s);
+      const double r_fused = c > 0.0 && ratio > c ? r + s * (ratio / c - 1.0) : r;
+      CHECK(ekf.state()(0) == Approx(z / (1.0 + r_fused)).epsilon(1e-12));
+      CHECK(ekf.covariance()(0, 0) == Approx(r_fused / (1.0 + r_fused)).epsilon(1e-12));
+    }
+  }
 }

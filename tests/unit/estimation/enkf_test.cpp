@@ -93,10 +93,12 @@ TEST_CASE("the EnKF tracks the zone: errors within its own uncertainty", "[enkf]
   eo.members = 400;
   eo.inflation = 1.0;
   eo.nis_gate = 1e12;
+  eo.robust_threshold = 0.0;
   eo.constrained = false;
   est::ConstrainedEnkf enkf(model, q, 1, eo);
   est::EkfOptions ko;
   ko.nis_gate = 1e12;
+  ko.robust_threshold = 0.0;  // both: every reading at full weight
   est::Ekf kf(model, q, 1, ko);
   const Run a = run_zone(kf), b = run_zone(enkf);
   for (int i = 0; i < 3; ++i) {
@@ -144,4 +146,37 @@ TEST_CASE("every EnKF member respects the state constraints", "[enkf][constraine
   REQUIRE_FALSE(enkf.active_constraints().empty());
   CHECK_THAT(enkf.constraint_name(enkf.active_constraints()[0]), Catch::StartsWith("x <= 1"));
   CHECK(enkf.counters().constrained_updates > 0);
+}
+
+// The Huber weight in the EnKF (EnkfOptions::robust_threshold, est::robust_variance): a reading
+// 3 innovation sigmas off is fused as from the wider noise r' = r + S (|ν|/√S / 2 - 1), in Pyy and
+// in the perturbed observations: the mean moves P ν / (P + r') (2/3 as far as at full weight)
+// and the spread keeps P r' / (P + r'). P is the ensemble's own prior variance, S - r.
+TEST_CASE("the EnKF fuses a reading beyond the robust threshold with a Huber weight", "[enkf]") {
+  const plant::AdModel<test::RandomWalk> model{test::RandomWalk{}};
+  const double r = 0.01;
+  for (const double c : {2.0, 0.0}) {
+    INFO("threshold " << c);
+    est::EnkfOptions o;
+    o.members = 2000;
+    o.inflation = 1.0;
+    o.constrained = false;
+    o.robust_threshold = c;
+    est::ConstrainedEnkf enkf(model, std::vector<double>{0.0}, 1, o);
+    enkf.reset(std::vector<double>{0.0}, std::vector<double>{1.0});
+    const double mean0 = enkf.state()(0);
+    const est::Measurement m{.output = 0, .value = 3.0, .variance = r, .available = true};
+    est::MeasurementReport rep;
+    REQUIRE(enkf.update({&m, 1}, {}, {&rep, 1}) == est::StepStatus::kOk);
+    REQUIRE(rep.fused);
+    REQUIRE(rep.test_ratio > 4.0);
+    const double p = rep.innovation_variance - r;
+    const double r_fused = est::robust_variance(r, rep, c);
+    CHECK(
+        r_fused ==
+        Approx(c > 0.0 ? r + rep.innovation_variance * (std::sqrt(rep.test_ratio) / c - 1.0) : r));
+    const double gain = p / (p + r_fused);
+    CHECK(enkf.state()(0) - mean0 == Approx(gain * rep.innovation).epsilon(0.03));
+    CHECK(enkf.covariance()(0, 0) == Approx(p * r_fused / (p + r_fused)).epsilon(0.1));
+  }
 }

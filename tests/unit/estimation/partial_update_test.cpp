@@ -102,7 +102,9 @@ TEST_CASE("state phases: the augmented states' gain ramps from 0 to 1 after the 
   // x physical, b augmented (estimated once released); y = x + b.
   const plant::AdModel<test::OffsetSensor> model(
       test::OffsetSensor{.estimate_offset = true, .augmented_offset = true});
-  est::Ekf ekf(model, std::vector<double>(2, 0.0), 1, est::EkfOptions{});
+  est::EkfOptions full_weight;
+  full_weight.robust_threshold = 0.0;  // the update below is checked against the plain gain
+  est::Ekf ekf(model, std::vector<double>(2, 0.0), 1, full_weight);
   ekf.reset(std::vector<double>{1.0, 0.0}, std::vector<double>{0.1, 0.2});
   const est::StatePhases phases(model.layout(), {}, 600.0, 0.0, 120.0);
   phases.apply(ekf, 300.0);  // held
