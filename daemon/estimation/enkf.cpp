@@ -29,8 +29,7 @@ plant::IntegratorOptions without_sensitivities(plant::IntegratorOptions o) {
 ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
                                  std::span<const double> process_noise,
                                  std::size_t max_measurements, const EnkfOptions& options)
-    : model_(model),
-      options_(options),
+    : options_(options),
       n_(model.num_states()),
       m_(model.num_outputs()),
       N_(options.members),

@@ -116,7 +116,6 @@ class ConstrainedEnkf final : public Estimator {
   bool readmit_lone_point(std::size_t i, const Measurement& mz, std::span<const double> u,
                           MeasurementReport& rep);
 
-  const plant::ContinuousModel& model_;
   EnkfOptions options_;
   std::size_t n_, m_, N_;
   Eigen::VectorXd q_;  // process-noise intensities (variance per second)
