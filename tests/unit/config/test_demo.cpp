@@ -123,6 +123,7 @@ TEST_CASE("demo.json loads with the values it sets and the documented defaults",
   CHECK(u.estimator.period_s == 60.0);
   CHECK(u.estimator.deadline_s == 0.5);
   CHECK(u.estimator.nis_gate == 10.83);                // default
+  CHECK(u.estimator.robust_threshold == 2.0);          // default
   CHECK(u.estimator.max_consecutive_rejections == 5);  // default
   CHECK(u.estimator.measurement_noise ==
         std::map<std::string, double>{{"zone_air_temperature", 0.05}});

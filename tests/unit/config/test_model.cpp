@@ -203,6 +203,15 @@ TEST_CASE("estimator period, deadline, gate and rejections", "[config]") {
   require_single_error(load_json(j), "/units/0/estimator/nis_gate",
                        {"expected a number > 0; got 0"});
   j = demo_json();
+  estimator(j)["robust_threshold"] = -1;
+  require_single_error(load_json(j), "/units/0/estimator/robust_threshold",
+                       {"expected a number >= 0; got -1"});
+  j = demo_json();
+  estimator(j)["robust_threshold"] = 0;  // off: every reading the gate lets in at full weight
+  const LoadResult off = load_json(j);
+  test::require_ok(off);
+  CHECK(off.config->units[0].estimator.robust_threshold == 0.0);
+  j = demo_json();
   estimator(j)["max_consecutive_rejections"] = 0;
   require_single_error(load_json(j), "/units/0/estimator/max_consecutive_rejections",
                        {"expected an integer in [1, 1000000]; got 0"});
