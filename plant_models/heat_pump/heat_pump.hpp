@@ -174,9 +174,11 @@ class HeatPumpR32 {
   S factor(std::span<const S> x, hp::Factor f) const {
     return L_.factor[f] != hp::kNone ? x[L_.factor[f]] : S(p_.factor[f]);
   }
-  // Solves the pressures in double precision (warm-started, cached by the inputs).
+  // Solves the pressures in double precision (warm-started, cached by the inputs). jac: the mass
+  // residuals' derivatives in the pressures, taken at the solution itself if jac_at_solution
+  // (the implicit-function theorem of a Jacobian needs that; a value does not use jac).
   int solve_pressures(const SideInputs<double>& in, const Conditions& c, double& p_cond,
-                      double& p_evap, std::array<double, 4>& jac) const;
+                      double& p_evap, std::array<double, 4>& jac, bool jac_at_solution) const;
   template <class S>
   int evaluate(std::span<const S> x, std::span<const double> u, Eval<S>& e) const;
   template <class S>
@@ -193,7 +195,8 @@ class HeatPumpR32 {
   mutable double cache_pc_ = 0.0, cache_pe_ = 0.0;
   mutable std::array<double, 4> cache_jac_{};
   mutable bool cache_valid_ = false;
-  mutable std::vector<CellJet> cell_jets_;  // 2 * kMaxCells slots (see coil_cell)
+  mutable bool cache_jac_at_solution_ = false;  // else at the last iterate, a round-off away
+  mutable std::vector<CellJet> cell_jets_;      // 2 * kMaxCells slots (see coil_cell)
 };
 
 }  // namespace hvac_twin::plant

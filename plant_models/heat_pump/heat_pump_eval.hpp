@@ -311,7 +311,7 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
   std::array<double, 4> J{};
   if constexpr (std::is_same_v<S, double>) {
     double rc = 0.0, re = 0.0;
-    if (const int st = solve_pressures(si, c, pc, pe, J); st != kModelOk) return st;
+    if (const int st = solve_pressures(si, c, pc, pe, J, false); st != kModelOk) return st;
     if (side_masses(pc, pe, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
   } else {
     // Pressures in double (Newton, cached across the chunks of one Jacobian); their tangents by
@@ -321,7 +321,7 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
     constexpr int K = S::kDirections;
     SideInputs<double> dv;
     map_inputs(si, dv, [](const S& v) { return value_of(v); });
-    if (const int st = solve_pressures(dv, c, pc, pe, J); st != kModelOk) return st;
+    if (const int st = solve_pressures(dv, c, pc, pe, J, true); st != kModelOk) return st;
     bool seeded = false;
     for (std::size_t i = 0; i < L_.refrigerant_states && !seeded; ++i)
       for (const double d : x[i].d)
