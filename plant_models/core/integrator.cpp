@@ -15,6 +15,7 @@
 #include "plant_models/core/direct_sensitivity_solver.hpp"
 #include "plant_models/core/eigen_dense_solver.hpp"
 #include "plant_models/core/jacobian_cache.hpp"
+#include "plant_models/core/matrix_exponential.hpp"
 
 namespace hvac_twin::plant {
 
@@ -41,6 +42,17 @@ struct Integrator::Sundials {
     if (y != nullptr) N_VDestroy(y);
     if (ctx != nullptr) SUNContext_Free(&ctx);
   }
+};
+
+struct Integrator::Transition {
+  explicit Transition(Eigen::Index n)
+      : F(n, n), J_start(n, n), J_mid(n, n), E(n, n), T(n, n), y_start(n), expm(n) {}
+  Eigen::MatrixXd F;        // the transition from 0 to the current segment's start
+  Eigen::MatrixXd J_start;  // the Jacobian at the segment's start
+  Eigen::MatrixXd J_mid, E, T;
+  Eigen::VectorXd y_start;  // the state there
+  MatrixExponential expm;
+  long segments = 0;  // since creation, for statistics
 };
 
 // CVODES callbacks. They never throw; model status codes pass straight through (0 ok, > 0
@@ -151,7 +163,9 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
   check(CVodeSetMaxNumSteps(s.cvode, options_.max_steps), "CVodeSetMaxNumSteps");
   if (options_.max_step_s > 0.0) check(CVodeSetMaxStep(s.cvode, options_.max_step_s), "max step");
 
-  if (options_.sensitivities) {
+  if (options_.sensitivities && options_.sensitivity_method == SensitivityMethod::kExponential) {
+    transition_ = std::make_unique<Transition>(static_cast<Eigen::Index>(n_));
+  } else if (options_.sensitivities) {
     s.ns = static_cast<int>(n_);
     const double sens_tol =
         options_.sensitivity_rel_tol > 0.0 ? options_.sensitivity_rel_tol : options_.rel_tol;
@@ -192,11 +206,12 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   jacobians_->invalidate();  // u (and the model's own state) may have changed since the last call
   const long jacobians0 = jacobians_->evaluations(), reuses0 = jacobians_->hits();
   const long solves0 = direct_sensitivity_solves(s.sens_solver);
+  const long segments0 = transition_ != nullptr ? transition_->segments : 0;
   double* y = N_VGetArrayPointer(s.y);
   std::memcpy(y, x.data(), n_ * sizeof(double));
   IntegrationResult result;
   result.flag = CVodeReInit(s.cvode, 0.0, s.y);
-  if (result.flag >= 0 && options_.sensitivities) {
+  if (result.flag >= 0 && transition_ == nullptr && options_.sensitivities) {
     for (int j = 0; j < s.ns; ++j) {
       N_VConst(0.0, s.yS[j]);
       N_VGetArrayPointer(s.yS[j])[j] = 1.0;
@@ -205,7 +220,12 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   }
   if (result.flag >= 0) result.flag = CVodeSetStopTime(s.cvode, dt);
   double t = 0.0;
-  if (result.flag >= 0) result.flag = CVode(s.cvode, dt, s.y, &t, CV_NORMAL);
+  if (result.flag >= 0) {
+    if (transition_ != nullptr && !F.empty())
+      result.flag = exponential_steps(dt, F);
+    else
+      result.flag = CVode(s.cvode, dt, s.y, &t, CV_NORMAL);
+  }
 
   stats_ = {};
   CVodeGetNumSteps(s.cvode, &stats_.steps);
@@ -213,13 +233,14 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   CVodeGetNumJacEvals(s.cvode, &stats_.jac_evals);
   CVodeGetNumErrTestFails(s.cvode, &stats_.error_test_failures);
   CVodeGetNumNonlinSolvConvFails(s.cvode, &stats_.nonlinear_failures);
-  if (options_.sensitivities) CVodeGetSensNumRhsEvals(s.cvode, &stats_.sens_rhs_evals);
+  if (s.ns > 0) CVodeGetSensNumRhsEvals(s.cvode, &stats_.sens_rhs_evals);
   stats_.sens_solves = direct_sensitivity_solves(s.sens_solver) - solves0;
   stats_.model_jacobians = jacobians_->evaluations() - jacobians0;
   stats_.jacobian_reuses = jacobians_->hits() - reuses0;
+  if (transition_ != nullptr) stats_.segments = transition_->segments - segments0;
   if (result.flag < 0) return result;
 
-  if (options_.sensitivities && !F.empty()) {
+  if (s.ns > 0 && !F.empty()) {
     result.flag = CVodeGetSens(s.cvode, &t, s.yS);
     if (result.flag < 0) return result;
     for (int j = 0; j < s.ns; ++j)
@@ -228,6 +249,55 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   }
   std::memcpy(x.data(), y, n_ * sizeof(double));
   return result;
+}
+
+int Integrator::exponential_steps(double dt, std::span<double> F) {
+  Sundials& s = *s_;
+  Transition& tr = *transition_;
+  const auto n = static_cast<Eigen::Index>(n_);
+  const std::span<const double> y{N_VGetArrayPointer(s.y), n_};
+  const std::span<const double> y_start{tr.y_start.data(), n_};
+  const double reuse = options_.jacobian_reuse_sigma;
+  const auto report = [&](const char* what, double t) {
+    std::snprintf(last_error_.data(), last_error_.size(), "integrator: %s at t = %g s", what, t);
+    return CV_RHSFUNC_FAIL;
+  };
+  // The Jacobian at y, copied to `to` (the cache keeps one matrix, and CVODES's Newton matrix
+  // may replace it).
+  const auto jacobian_at = [&](Eigen::MatrixXd& to) {
+    const double* J = nullptr;
+    const int status = jacobians_->get_near(y, u_, reuse, &J);
+    if (status != kModelOk || J == nullptr) return false;
+    to = Eigen::Map<const Eigen::MatrixXd>(J, n, n);
+    return true;
+  };
+  if (!jacobian_at(tr.J_start)) return report("no model Jacobian at the initial state", 0.0);
+  tr.F.setIdentity();
+  tr.y_start = Eigen::Map<const Eigen::VectorXd>(y.data(), n);
+  double t_start = 0.0, t = 0.0;
+  for (long steps = 1;; ++steps) {
+    if (steps > options_.max_steps) {
+      report("too many steps", t);
+      return CV_TOO_MUCH_WORK;
+    }
+    const int flag = CVode(s.cvode, dt, s.y, &t, CV_ONE_STEP);
+    if (flag < 0) return flag;
+    const bool end = flag == CV_TSTOP_RETURN || t >= dt;
+    if (!end && jacobians_->within(y, y_start, reuse)) continue;
+    // The segment [t_start, t] ends: F <- exp((J_start + J_end) / 2 (t - t_start)) F.
+    if (!jacobian_at(tr.T)) return report("no model Jacobian", t);
+    tr.J_mid = 0.5 * (t - t_start) * (tr.J_start + tr.T);
+    tr.J_start = tr.T;
+    if (!tr.expm.compute(tr.J_mid, tr.E)) return report("no matrix exponential", t);
+    tr.T.noalias() = tr.E * tr.F;
+    tr.F = tr.T;
+    ++tr.segments;
+    if (end) break;
+    tr.y_start = Eigen::Map<const Eigen::VectorXd>(y.data(), n);
+    t_start = t;
+  }
+  Eigen::Map<Eigen::MatrixXd>(F.data(), n, n) = tr.F;
+  return CV_SUCCESS;
 }
 
 }  // namespace hvac_twin::plant

@@ -6,15 +6,19 @@
 // control (sensitivity_error_control), and otherwise as accurate as the steps the state needs
 // make it (see there).
 //
-// Sensitivities (SensitivityMethod): by default each accepted step's sensitivity system
+// Sensitivities (SensitivityMethod): by default each
+// accepted step's sensitivity system
 // (I - gamma J(x_n)) S_n = (CVODES's predicted history) is solved exactly and for all n columns
 // at once, with one Jacobian at the step's state and one LU factorisation
 // (direct_sensitivity_solver.hpp): F is the derivative of CVODES's own BDF steps, at about one
 // Jacobian per step. kCvodesNewton keeps CVODES's own corrector (per-column Newton iterations with
 // the state's lagged iteration matrix, a Jacobian-times-S right-hand side per iteration), the
-// reference the default is checked against. Either way the model Jacobian is evaluated at most
-// once per distinct state (jacobian_cache.hpp): CVODES's Newton matrix, the sensitivity
-// right-hand side and the direct solve share it.
+// reference the default is checked against. kExponential integrates the state alone and
+// composes F of matrix exponentials of the Jacobian along the trajectory
+// (matrix_exponential.hpp): exact for a linear model whatever the steps, where the sensitivity
+// systems are only as exact as the BDF steps they are solved on. Every way the model Jacobian is
+// evaluated at most once per distinct state (jacobian_cache.hpp): CVODES's Newton matrix, the
+// sensitivity right-hand side, the direct solve and the exponential's segments share it.
 //
 // Created once per unit (allocates all solver memory; throws std::runtime_error if SUNDIALS
 // cannot be set up). step() re-initialises the solver and never allocates or throws.
@@ -36,6 +40,15 @@ class JacobianCache;
 enum class SensitivityMethod {
   kDirect,        // exact per-step solve, all columns at once (default)
   kCvodesNewton,  // CVODES's staggered Newton corrector, column by column (reference)
+  // The state alone by CVODES (no sensitivity system, so no sensitivity error control), F as the
+  // product of matrix exponentials over segments of the trajectory, one segment while no state
+  // has moved more than jacobian_reuse_sigma from the segment's start: exp(J_mid (t_end -
+  // t_start)), J_mid the mean of the Jacobians at both ends (the trapezoidal rule: exact for a
+  // linear model, second order in the segment's length otherwise). The state's own steps
+  // decide where segments end; F's fast modes need no steps of their own, since the
+  // exponential resolves them exactly. Needs jacobian_reuse_sigma > 0 to be cheaper than a
+  // segment per step.
+  kExponential,
 };
 
 struct IntegratorOptions {
@@ -45,6 +58,7 @@ struct IntegratorOptions {
   long max_steps = 20000;      // per step() call
   double max_step_s = 0.0;     // largest internal step [s]; 0 = unlimited
   bool sensitivities = false;  // compute F in step()
+  // kDirect and kCvodesNewton (kExponential has no sensitivity system to test).
   // Include sensitivities in the local error test. Off (the default), F rides on the steps the
   // state's own accuracy needs, solved exactly on each; on, F meets the tolerances itself, at the
   // price of more steps. Absolute tolerance of dx_i/dx0_j is abs_tol_i / (abs_tol_j / rel_tol):
@@ -85,6 +99,7 @@ struct IntegrationStats {
   long sens_solves = 0;      // direct sensitivity solves (kDirect: one per accepted step)
   long model_jacobians = 0;  // model Jacobians evaluated (each distinct state once)
   long jacobian_reuses = 0;  // Jacobian requests served from the one already evaluated
+  long segments = 0;         // kExponential: matrix exponentials F was composed of
   long error_test_failures = 0;
   long nonlinear_failures = 0;
 };
@@ -114,8 +129,12 @@ class Integrator {
   [[nodiscard]] const IntegratorOptions& options() const { return options_; }
 
  private:
-  struct Sundials;  // SUNDIALS handles, hidden so no SUNDIALS header leaks to users
+  struct Sundials;    // SUNDIALS handles, hidden so no SUNDIALS header leaks to users
+  struct Transition;  // kExponential's workspace
   friend struct IntegratorCallbacks;
+
+  // kExponential: integrates to dt one CVODES step at a time, composing F by segments.
+  int exponential_steps(double dt, std::span<double> F);
 
   const ContinuousModel& model_;
   IntegratorOptions options_;
@@ -123,6 +142,7 @@ class Integrator {
   std::unique_ptr<Sundials> s_;
   std::span<const double> u_;                  // inputs during the current step
   std::unique_ptr<JacobianCache> jacobians_;   // J at the last state asked for
+  std::unique_ptr<Transition> transition_;     // kExponential only
   std::unique_ptr<double[]> sens_, sens_dot_;  // n x n: sensitivities gathered, and J S
   IntegrationStats stats_;
   std::array<char, 256> last_error_{};

@@ -23,9 +23,14 @@ bool JacobianCache::holds(std::span<const double> x) const {
 }
 
 bool JacobianCache::near(std::span<const double> x, double distance) const {
-  if (!valid_ || x.size() != n_) return false;
+  return valid_ && within(x, {x_.get(), n_}, distance);
+}
+
+bool JacobianCache::within(std::span<const double> a, std::span<const double> b,
+                           double distance) const {
+  if (a.size() != n_ || b.size() != n_) return false;
   for (std::size_t i = 0; i < n_; ++i)
-    if (!(std::abs(x[i] - x_[i]) <= distance * scale_[i])) return false;  // NaN: not near
+    if (!(std::abs(a[i] - b[i]) <= distance * scale_[i])) return false;  // NaN: not near
   return true;
 }
 

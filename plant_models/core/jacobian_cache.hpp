@@ -41,6 +41,9 @@ class JacobianCache {
   [[nodiscard]] bool holds(std::span<const double> x) const;
   // Whether the stored matrix, if any, was evaluated within `distance` of x (see get_near()).
   [[nodiscard]] bool near(std::span<const double> x, double distance) const;
+  // Whether a is within `distance` of b, in the same units.
+  [[nodiscard]] bool within(std::span<const double> a, std::span<const double> b,
+                            double distance) const;
 
   // The stored matrix, wherever it was evaluated, or null if none (counted as a hit).
   const double* latest() {

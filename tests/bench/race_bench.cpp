@@ -2,8 +2,9 @@
 // benchmark, every period, from the constrained EKF's prior and with the period's inputs, this
 // times in the same process
 //   - the constrained-EKF step (predict with F, then the constrained update), and its predict;
-//   - the integrator with F (forward sensitivities), by the default method and, where the build
-//     has it, by CVODES's own Newton corrector (the method before issue 13);
+//   - the integrator with F, by the filters' default method (the per-step direct sensitivity
+//     solve; --exponential: the product of matrix exponentials) and, where the build has it, by
+//     CVODES's own Newton corrector (the method before issue 13);
 //   - the plain simulation of the period with the same integrator and tolerance;
 //   - a finite-difference F: n + 1 plain integrations, forward differences with steps of
 //     sqrt(rel_tol) times each state's scale (the way a script or FMU path gets F);
@@ -24,7 +25,7 @@
 // outputs' standard deviations sqrt(diag(H P- H')), the largest relative error over all outputs.
 //
 //   race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R] [--reuse-jacobians]
-//              [--max-step S]
+//              [--max-step S] [--jacobian-reuse D] [--exponential]
 //
 // The F paths start from the filter's integrator options (est::filter_integrator_options).
 // --sens-tol R puts F under sensitivity error control at relative tolerance R (the EKF's and the
@@ -91,9 +92,17 @@ double g_max_step = 0.0;
 // --jacobian-reuse D: IntegratorOptions::jacobian_reuse_sigma (one Jacobian while no state moved
 // more than D of its initial sigma).
 double g_jacobian_reuse = -1.0;
+// --exponential: the filter's F (the EKF's and the default path's) as a product of matrix
+// exponentials (plant::SensitivityMethod::kExponential) instead of the filters' default, the
+// per-step direct solve.
+bool g_exponential = false;
+const char* default_method() {
+  return g_exponential ? "exponential" : "direct (default)";
+}
 
 template <class O>
 void set_sensitivity_tolerance(O& o) {
+  if (g_exponential) o.sensitivity_method = plant::SensitivityMethod::kExponential;
   if constexpr (requires { o.reuse_newton_jacobian; }) o.reuse_newton_jacobian = g_reuse_jacobians;
   if (g_max_step > 0.0) o.max_step_s = g_max_step;
   if constexpr (requires { o.jacobian_reuse_sigma; })
@@ -106,8 +115,8 @@ void set_sensitivity_tolerance(O& o) {
 plant::IntegratorOptions with_f(bool cvodes_newton) {
   plant::IntegratorOptions o = est::filter_integrator_options();
   o.sensitivities = true;
-  if (cvodes_newton) use_cvodes_newton(o);
   set_sensitivity_tolerance(o);
+  if (cvodes_newton) use_cvodes_newton(o);
   return o;
 }
 
@@ -173,7 +182,7 @@ struct Race {
   std::vector<double> scale, fd_step;
   std::vector<double> x, F_direct, F_newton, F_fd, F_ref, base, xp;
   std::vector<double> t_direct, t_newton, t_plain, t_fd, t_jac, t_rhs;
-  std::vector<double> steps, jacs_direct, jacs_newton;
+  std::vector<double> steps, jacs_direct, jacs_newton, segments;
   long failures = 0;
   long failures_fd = 0, failures_ref = 0;  // of those: finite-difference runs, the reference
 
@@ -235,6 +244,7 @@ struct Race {
     run(direct, x0, u, F_direct, &t_direct);
     steps.push_back(static_cast<double>(direct.last_stats().steps));
     jacs_direct.push_back(static_cast<double>(model_jacobians(direct.last_stats())));
+    segments.push_back(static_cast<double>(direct.last_stats().segments));
     run(newton, x0, u, F_newton, &t_newton);
     jacs_newton.push_back(static_cast<double>(model_jacobians(newton.last_stats())));
     // Finite differences: the base run and one run per perturbed state.
@@ -273,7 +283,7 @@ struct Race {
   // Forgets the last `count` timings (a period timed only to compute its F).
   void drop_last_timings(std::size_t count) {
     for (auto* v : {&t_direct, &t_newton, &t_plain, &t_fd, &t_jac, &t_rhs, &steps, &jacs_direct,
-                    &jacs_newton})
+                    &jacs_newton, &segments})
       v->resize(v->size() - std::min(count, v->size()));
   }
 };
@@ -353,11 +363,14 @@ int main(int argc, char** argv) {
       g_jacobian_reuse = std::atof(next().c_str());
     } else if (a == "--max-step") {
       g_max_step = std::atof(next().c_str());
+    } else if (a == "--exponential") {
+      g_exponential = true;
     } else {
       std::fprintf(
           stderr,
           "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n"
-          "                  [--reuse-jacobians] [--jacobian-reuse D] [--max-step S]\n");
+          "                  [--reuse-jacobians] [--jacobian-reuse D] [--max-step S]\n"
+          "                  [--exponential]\n");
       return 2;
     }
   }
@@ -479,7 +492,10 @@ int main(int argc, char** argv) {
       race.t_plain.size());
   row("constrained-EKF step (predict + update)", t_step);
   row("  its predict (integrator with F, P = F P F' + Q)", t_predict);
-  if (race.has_choice) row("integrator with F, direct (default)", race.t_direct);
+  if (race.has_choice) {
+    const std::string name = std::string("integrator with F, ") + default_method();
+    row(name.c_str(), race.t_direct);
+  }
   row("integrator with F, CVODES Newton corrector", race.t_newton);
   row("plain simulation of the period", race.t_plain);
   row("finite-difference F (n + 1 plain integrations)", race.t_fd);
@@ -489,17 +505,18 @@ int main(int argc, char** argv) {
               percentile(race.t_rhs, 0.5));
   std::printf("  finite-difference F / constrained-EKF step: %.1f x\n",
               percentile(race.t_fd, 0.5) / percentile(t_step, 0.5));
-  std::printf(
-      "per period (median): %.0f BDF steps; model Jacobians: direct %.0f, CVODES Newton %.0f\n",
-      percentile(race.steps, 0.5), percentile(race.jacs_direct, 0.5),
-      percentile(race.jacs_newton, 0.5));
+  std::printf("per period (median): %.0f BDF steps; model Jacobians: %s %.0f, CVODES Newton %.0f",
+              percentile(race.steps, 0.5), g_exponential ? "exponential" : "direct",
+              percentile(race.jacs_direct, 0.5), percentile(race.jacs_newton, 0.5));
+  if (g_exponential) std::printf("; exponential segments %.0f", percentile(race.segments, 0.5));
+  std::printf("\n");
 
   std::printf(
       "\nF error against the reference (%d periods checked; Frobenius / max entry rel. to "
       "column / the prior covariance F P F' + Q_d's, in units of itself / the outputs' sigma, "
       "relative)\n  %-38s %27s %27s %27s %19s\n",
-      checked, "case", "direct (default)", "CVODES Newton", "finite differences",
-      "direct vs Newton");
+      checked, "case", default_method(), "CVODES Newton", "finite differences",
+      g_exponential ? "exp. vs Newton" : "direct vs Newton");
   for (const auto& c : cases)
     print_case(c, race.has_choice);
   std::printf("integration failures: %ld (finite-difference runs %ld, reference %ld)\n",
