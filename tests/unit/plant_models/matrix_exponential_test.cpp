@@ -82,3 +82,28 @@ TEST_CASE("the matrix exponential agrees with Eigen's at the heat pump's size an
   A(3, 5) = std::numeric_limits<double>::infinity();
   CHECK_FALSE(expm.compute(A, E));
 }
+
+TEST_CASE("balancing takes a badly scaled matrix's squarings down to those of its scaled form",
+          "[integrator][expm]") {
+  // A = D B D^-1 with states in units six orders of magnitude apart, as kJ/kg, K and kg mix in a
+  // model's Jacobian: exp(A) = D exp(B) D^-1, and balancing should find D back.
+  const Eigen::Index n = 4;
+  Eigen::MatrixXd B(n, n);
+  B << -1.0, 0.5, 0.2, 0.0,  //
+      0.3, -2.0, 0.1, 0.4,   //
+      0.0, 0.6, -1.5, 0.2,   //
+      0.1, 0.0, 0.3, -0.5;
+  Eigen::VectorXd d(n);
+  d << 1.0, 1e4, 1e-4, 1e6;
+  const Eigen::MatrixXd A = d.asDiagonal() * B * d.cwiseInverse().asDiagonal();
+  REQUIRE(A.cwiseAbs().colwise().sum().maxCoeff() > 1e5);  // unbalanced: 2^15 x theta_13
+  Eigen::MatrixXd E(n, n);
+  MatrixExponential expm(n);
+  REQUIRE(expm.compute(A, E));
+  const Eigen::MatrixXd exact = d.asDiagonal() * B.exp() * d.cwiseInverse().asDiagonal();
+  INFO("squarings " << expm.last_squarings());
+  CHECK(expm.last_squarings() == 0);  // B's 1-norm is below theta_13
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      CHECK(E(i, j) == Approx(exact(i, j)).epsilon(1e-12).margin(1e-300));
+}
