@@ -121,7 +121,7 @@ void Ekf::apply_constraints() {
   // (on the states the projection moves).
   for (const int r : active) {
     row_ = A_free_.row(r).transpose();
-    truncate_gaussian(x_unc_, P_, row_, b_free_(r), work_);
+    truncate_gaussian(x_unc_, P_, row_, b_free_(r), work_, options_.truncation_max_depth);
   }
 }
 

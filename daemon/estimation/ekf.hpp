@@ -76,6 +76,9 @@ struct EkfOptions {
   // (truncation.hpp) of the unconstrained posterior at the constraints active there.
   bool constrained = false;
   ProjectionOptions projection;
+  // How deep beyond an active constraint the unconstrained posterior's mean is believed when
+  // truncating [sigma along the constraint] (truncation.hpp, "Depth limit"). Infinity: exact.
+  double truncation_max_depth = 1.0;
 };
 
 using EkfCounters = EstimatorCounters;

@@ -1,5 +1,6 @@
 #include "daemon/estimation/truncation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -29,13 +30,13 @@ TruncatedMoments truncated_standard_normal(double c) {
 
 bool truncate_gaussian(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> P,
                        const Eigen::Ref<const Eigen::VectorXd>& a, double b,
-                       Eigen::Ref<Eigen::VectorXd> pa) {
+                       Eigen::Ref<Eigen::VectorXd> pa, double max_depth) {
   pa.noalias() = P * a;
   const double var = a.dot(pa);
   if (!(var > 0.0)) return false;
   const double sigma = std::sqrt(var);
   const double s = a.dot(x);
-  const TruncatedMoments t = truncated_standard_normal((b - s) / sigma);
+  const TruncatedMoments t = truncated_standard_normal(std::max((b - s) / sigma, -max_depth));
   x += pa * (t.mean * sigma / var);
   const double shrink = (1.0 - t.variance) / var;  // (sigma^2 - Var) / sigma^4
   const auto n = P.rows();

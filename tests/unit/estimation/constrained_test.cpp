@@ -1,8 +1,10 @@
 // The constrained update's pieces: the QP projection against brute-force enumeration of active
 // sets, and the PDF truncation against numerical integration.
 #include <Eigen/Dense>
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -15,7 +17,8 @@ namespace {
 
 // Mean and variance of N(0, 1) restricted to (-inf, c], by Simpson's rule over
 // [c - 30 / (1 + |c|) - 12, c] in long double.
-std::pair<double, double> truncated_by_integration(double c) {
+std::pair<double, double> truncated_by_integration(double c_double) {
+  const auto c = static_cast<long double>(c_double);
   const long double lo = c - 12.0L - 30.0L / (1.0L + std::fabs(c)), hi = c;
   const int n = 200000;
   const long double h = (hi - lo) / n;
@@ -79,7 +82,7 @@ TEST_CASE("Gaussian truncation of a correlated 2-D Gaussian matches grid integra
   Eigen::Vector2d xt = x;
   Eigen::Matrix2d Pt = P;
   Eigen::Vector2d work;
-  REQUIRE(truncate_gaussian(xt, Pt, a, b, work));
+  REQUIRE(truncate_gaussian(xt, Pt, a, b, work, std::numeric_limits<double>::infinity()));
   CHECK(xt(0) == Approx(mx).epsilon(1e-5));
   CHECK(xt(1) == Approx(my).epsilon(1e-5));
   CHECK(Pt(0, 0) == Approx(sxx / w - mx * mx).epsilon(1e-5));
@@ -236,15 +239,48 @@ TEST_CASE("the constrained EKF projects onto a violated bound and truncates the 
   const double x_plain = plain.state()(0), p_plain = plain.covariance()(0, 0);
   CHECK(x_plain > 1.0);  // the unconstrained estimate leaves the physical range
   CHECK(constrained.state()(0) == Approx(1.0).margin(1e-12));  // the MAP on the bound
-  // Covariance: the unconstrained posterior truncated at x <= 1, in closed form.
-  const double sigma = std::sqrt(p_plain);
-  const auto t = truncated_standard_normal((1.0 - x_plain) / sigma);
-  CHECK(constrained.covariance()(0, 0) == Approx(p_plain * t.variance).epsilon(1e-12));
+  // Covariance: the unconstrained posterior truncated at x <= 1, in closed form, believed at
+  // most truncation_max_depth (1) sigma beyond the bound: it lies 2.5 sigma beyond.
+  const double sigma = std::sqrt(p_plain), c = (1.0 - x_plain) / sigma;
+  REQUIRE(c < -2.0);
+  const auto limited = truncated_standard_normal(-1.0);
+  CHECK(constrained.covariance()(0, 0) == Approx(p_plain * limited.variance).epsilon(1e-12));
   CHECK(constrained.covariance()(0, 0) < p_plain);
+  // Without the limit: the exact truncated variance, a third of the limited one.
+  options.constrained = true;
+  options.truncation_max_depth = std::numeric_limits<double>::infinity();
+  Ekf exact(model, std::vector<double>{0.0}, 1, options);
+  exact.reset(std::vector<double>{0.9}, std::vector<double>{0.2});
+  REQUIRE(exact.update({&m, 1}, {}, {&rep, 1}) == StepStatus::kOk);
+  CHECK(exact.state()(0) == Approx(1.0).margin(1e-12));
+  CHECK(exact.covariance()(0, 0) ==
+        Approx(p_plain * truncated_standard_normal(c).variance).epsilon(1e-12));
+  CHECK(exact.covariance()(0, 0) < 0.5 * constrained.covariance()(0, 0));
   REQUIRE(constrained.active_constraints().size() == 1);
   CHECK_THAT(constrained.constraint_name(constrained.active_constraints()[0]),
              Catch::StartsWith("x <= 1"));
   CHECK(constrained.counters().constrained_updates == 1);
+}
+
+TEST_CASE("the truncation's depth limit: a mean far beyond the bound is believed only so far",
+          "[truncation]") {
+  // N(5, 1) truncated to x <= 0: exact, the variance ~1/25 (the tail's shape); limited to 1
+  // sigma, that of N(1, 1) truncated to x <= 0, on every correlated state alike.
+  Eigen::Vector2d a(1.0, 0.0), work;
+  Eigen::Matrix2d P;
+  P << 1.0, 0.6, 0.6, 2.0;
+  for (const double depth : {std::numeric_limits<double>::infinity(), 1.0, 6.0}) {
+    INFO("max depth " << depth);
+    Eigen::Vector2d x(5.0, 0.0);
+    Eigen::Matrix2d Pt = P;
+    REQUIRE(truncate_gaussian(x, Pt, a, 0.0, work, depth));
+    const double v = truncated_standard_normal(std::max(-5.0, -depth)).variance;
+    CHECK(Pt(0, 0) == Approx(v).epsilon(1e-12));
+    // The correlated state loses the same share of what it shares with x0.
+    CHECK(Pt(1, 1) == Approx(2.0 - 0.36 * (1.0 - v)).epsilon(1e-12));
+  }
+  CHECK(truncated_standard_normal(-5.0).variance < 0.04);
+  CHECK(truncated_standard_normal(-1.0).variance > 0.19);
 }
 
 TEST_CASE("with no constraint active the constrained EKF equals the plain one",
