@@ -152,10 +152,11 @@ struct FilterRun {
       // The Jacobian reuse distance (IntegratorOptions::jacobian_reuse_sigma), to compare.
       if (const char* d = std::getenv("BENCH_JACOBIAN_REUSE"))
         o.integrator.jacobian_reuse_sigma = std::atof(d);
-      // BENCH_EXPONENTIAL=1: F as a product of matrix exponentials
-      // (plant::SensitivityMethod::kExponential) instead of the per-step direct solve, to compare.
-      if (const char* d = std::getenv("BENCH_EXPONENTIAL"); d != nullptr && std::atoi(d) == 1)
-        o.integrator.sensitivity_method = plant::SensitivityMethod::kExponential;
+      // BENCH_DIRECT=1: F by CVODES's per-step direct sensitivity solve
+      // (plant::SensitivityMethod::kDirect) instead of the filters' matrix exponentials, to
+      // compare.
+      if (const char* d = std::getenv("BENCH_DIRECT"); d != nullptr && std::atoi(d) == 1)
+        o.integrator.sensitivity_method = plant::SensitivityMethod::kDirect;
       filter = std::make_unique<est::Ekf>(*model, q, kMeasured.size(), o);
     }
     for (const std::size_t i : checked_outputs())

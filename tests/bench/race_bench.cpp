@@ -2,8 +2,8 @@
 // benchmark, every period, from the constrained EKF's prior and with the period's inputs, this
 // times in the same process
 //   - the constrained-EKF step (predict with F, then the constrained update), and its predict;
-//   - the integrator with F, by the filters' default method (the per-step direct sensitivity
-//     solve; --exponential: the product of matrix exponentials) and, where the build has it, by
+//   - the integrator with F, by the filters' default method (the product of matrix exponentials;
+//     --direct: the per-step direct sensitivity solve) and, where the build has it, by
 //     CVODES's own Newton corrector (the method before issue 13);
 //   - the plain simulation of the period with the same integrator and tolerance;
 //   - a finite-difference F: n + 1 plain integrations, forward differences with steps of
@@ -25,7 +25,7 @@
 // outputs' standard deviations sqrt(diag(H P- H')), the largest relative error over all outputs.
 //
 //   race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R] [--reuse-jacobians]
-//              [--max-step S] [--jacobian-reuse D] [--exponential]
+//              [--max-step S] [--jacobian-reuse D] [--direct | --exponential]
 //
 // The F paths start from the filter's integrator options (est::filter_integrator_options).
 // --sens-tol R puts F under sensitivity error control at relative tolerance R (the EKF's and the
@@ -92,17 +92,20 @@ double g_max_step = 0.0;
 // --jacobian-reuse D: IntegratorOptions::jacobian_reuse_sigma (one Jacobian while no state moved
 // more than D of its initial sigma).
 double g_jacobian_reuse = -1.0;
-// --exponential: the filter's F (the EKF's and the default path's) as a product of matrix
-// exponentials (plant::SensitivityMethod::kExponential) instead of the filters' default, the
-// per-step direct solve.
-bool g_exponential = false;
+// --direct / --exponential: the filter's F (the EKF's and the default path's) by CVODES's
+// per-step direct sensitivity solve (plant::SensitivityMethod::kDirect) or as a product of matrix
+// exponentials (kExponential); without either, the filters' default (the exponential).
+plant::SensitivityMethod g_method = est::filter_integrator_options().sensitivity_method;
+bool exponential() {
+  return g_method == plant::SensitivityMethod::kExponential;
+}
 const char* default_method() {
-  return g_exponential ? "exponential" : "direct (default)";
+  return exponential() ? "exponential" : "direct";
 }
 
 template <class O>
 void set_sensitivity_tolerance(O& o) {
-  if (g_exponential) o.sensitivity_method = plant::SensitivityMethod::kExponential;
+  o.sensitivity_method = g_method;
   if constexpr (requires { o.reuse_newton_jacobian; }) o.reuse_newton_jacobian = g_reuse_jacobians;
   if (g_max_step > 0.0) o.max_step_s = g_max_step;
   if constexpr (requires { o.jacobian_reuse_sigma; })
@@ -364,13 +367,15 @@ int main(int argc, char** argv) {
     } else if (a == "--max-step") {
       g_max_step = std::atof(next().c_str());
     } else if (a == "--exponential") {
-      g_exponential = true;
+      g_method = plant::SensitivityMethod::kExponential;
+    } else if (a == "--direct") {
+      g_method = plant::SensitivityMethod::kDirect;
     } else {
       std::fprintf(
           stderr,
           "usage: race_bench [--short] [--hours H] [--period S] [--every K] [--sens-tol R]\n"
           "                  [--reuse-jacobians] [--jacobian-reuse D] [--max-step S]\n"
-          "                  [--exponential]\n");
+          "                  [--direct | --exponential]\n");
       return 2;
     }
   }
@@ -506,9 +511,9 @@ int main(int argc, char** argv) {
   std::printf("  finite-difference F / constrained-EKF step: %.1f x\n",
               percentile(race.t_fd, 0.5) / percentile(t_step, 0.5));
   std::printf("per period (median): %.0f BDF steps; model Jacobians: %s %.0f, CVODES Newton %.0f",
-              percentile(race.steps, 0.5), g_exponential ? "exponential" : "direct",
-              percentile(race.jacs_direct, 0.5), percentile(race.jacs_newton, 0.5));
-  if (g_exponential) std::printf("; exponential segments %.0f", percentile(race.segments, 0.5));
+              percentile(race.steps, 0.5), default_method(), percentile(race.jacs_direct, 0.5),
+              percentile(race.jacs_newton, 0.5));
+  if (exponential()) std::printf("; exponential segments %.0f", percentile(race.segments, 0.5));
   std::printf("\n");
 
   std::printf(
@@ -516,7 +521,7 @@ int main(int argc, char** argv) {
       "column / the prior covariance F P F' + Q_d's, in units of itself / the outputs' sigma, "
       "relative)\n  %-38s %27s %27s %27s %19s\n",
       checked, "case", default_method(), "CVODES Newton", "finite differences",
-      g_exponential ? "exp. vs Newton" : "direct vs Newton");
+      exponential() ? "exp. vs Newton" : "direct vs Newton");
   for (const auto& c : cases)
     print_case(c, race.has_choice);
   std::printf("integration failures: %ld (finite-difference runs %ld, reference %ld)\n",

@@ -1,11 +1,11 @@
 // The filters' state-transition matrix F in steady operation (the compressor running, settled;
 // est::filter_integrator_options) against a tight reference. A running unit spends most of its
 // hours there, and there the state alone lets the integrator take steps of seconds, far longer
-// than the fast modes F has to carry: without
-// sensitivity error control F was 30 % off the reference and the predicted output sigmas up to
-// 30-40 % (here, and race_bench's steady-state row). The filters put F under error control at a
-// loose tolerance (0.1). F as a product of matrix exponentials (kExponential) is exact on the
-// state's own steps.
+// than the fast modes F has to carry. The filters take F as a product of matrix exponentials
+// (kExponential), exact on the state's own steps. The direct solve of CVODES's sensitivities
+// needs steps of its own for those modes: without sensitivity error control it was 30 % off the
+// reference and the predicted output sigmas up to 30-40 % (here, and race_bench's steady-state
+// row); under error control at 0.1, 0.006 off in 8 times the steps.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -56,15 +56,16 @@ TEST_CASE(
   tight.jacobian_reuse_sigma = 0.0;  // the reference is exact
   plant::IntegratorOptions filters = est::filter_integrator_options();
   filters.sensitivities = true;
-  plant::IntegratorOptions unchecked = filters;
+  REQUIRE(filters.sensitivity_method == plant::SensitivityMethod::kExponential);
+  plant::IntegratorOptions direct = filters;  // CVODES's sensitivities, F under error control
+  direct.sensitivity_method = plant::SensitivityMethod::kDirect;
+  plant::IntegratorOptions unchecked = direct;
   unchecked.sensitivity_error_control = false;
-  plant::IntegratorOptions exponential = filters;  // F of matrix exponentials, on the state's steps
-  exponential.sensitivity_method = plant::SensitivityMethod::kExponential;
 
   const Transition ref = transition(model, tight, x, u);
-  const Transition f = transition(model, filters, x, u);
+  const Transition f = transition(model, direct, x, u);
   const Transition g = transition(model, unchecked, x, u);
-  const Transition e = transition(model, exponential, x, u);
+  const Transition e = transition(model, filters, x, u);
 
   // D^-1 F D, D the states' resolution scales (abs_tol / rel_tol), as the integrator weighs them.
   const auto n = static_cast<Eigen::Index>(model.num_states());
@@ -97,21 +98,22 @@ TEST_CASE(
       if (r(i) > 1e-12 * r.maxCoeff()) worst = std::max(worst, std::abs(a(i) / r(i) - 1.0));
     return worst;
   };
-  INFO("F distance: filters " << distance(f) << " (" << f.steps << " steps), unchecked "
-                              << distance(g) << " (" << g.steps << " steps); sigma error: filters "
-                              << sigma_error(f) << ", unchecked " << sigma_error(g));
-  // Seen (the default cells): the filters' F 0.006 off in 24 steps, the worst sigma 9 % (the
+  INFO("F distance: direct " << distance(f) << " (" << f.steps << " steps), unchecked "
+                             << distance(g) << " (" << g.steps << " steps); sigma error: direct "
+                             << sigma_error(f) << ", unchecked " << sigma_error(g));
+  // Seen (the default cells): the direct solve's F 0.006 off in 24 steps, the worst sigma 9 % (the
   // evaporator heat flow; every other output within 1.5 %), at F's tolerance of 0.1; without
   // error control 3 steps, F 0.31 off and the sigmas up to 30 % (most outputs 25-30 % low).
   CHECK(distance(f) < 0.02);
   CHECK(sigma_error(f) < 0.15);
-  // Why the filters check F: the state's steps alone do not carry it.
+  // Why the direct solve checks F: the state's steps alone do not carry it.
   CHECK(distance(g) > 10.0 * distance(f));
   CHECK(sigma_error(g) > 2.0 * sigma_error(f));
-  // The matrix exponential needs no steps of its own for F's fast modes: on the state's steps it
-  // is exact where the checked F is 0.006 off (seen: 4e-7, the sigmas within 7e-6).
-  INFO("exponential: F distance " << distance(e) << " (" << e.steps << " steps), sigma error "
-                                  << sigma_error(e));
+  // The filters' matrix exponentials need no steps of their own for F's fast modes: on the
+  // state's steps F is exact where the checked direct solve is 0.006 off (seen: 4e-7, the sigmas
+  // within 7e-6).
+  INFO("filters (exponential): F distance " << distance(e) << " (" << e.steps
+                                            << " steps), sigma error " << sigma_error(e));
   CHECK(distance(e) < 1e-4);
   CHECK(sigma_error(e) < 1e-3);
   CHECK(e.steps <= g.steps);
