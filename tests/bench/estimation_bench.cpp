@@ -344,7 +344,7 @@ int main(int argc, char** argv) {
       if (k > 0 && k % static_cast<int>(1800.0 / a.period) == 0) {
         std::printf("  %s: %5.2f h simulated;", bench::truth_name(kind), (t + a.period) / 3600.0);
         for (const auto& r : runs)
-          std::printf("  %s %.1f ms/step", r.name.c_str(),
+          std::printf("  %s %.1f ms/step (median so far)", r.name.c_str(),
                       r.step_ms.empty() ? 0.0 : percentile(r.step_ms, 0.5));
         std::printf("\n");
         std::fflush(stdout);
