@@ -336,10 +336,11 @@ int main(int argc, char** argv) {
       for (auto& r : runs) {
         r.step(u, truth, t, a.period, scoring);
         if (std::getenv("BENCH_TRACE") != nullptr && !r.step_ms.empty())
-          std::printf("k %d %s step %.1f ms | charge %.4f (truth %.4f) M_cond %.4f (%.4f) %s\n", k,
-                      r.name.c_str(), r.step_ms.back(), r.filter->state()(0), truth.x()[0],
-                      r.filter->state()(1), truth.x()[1],
-                      r.trace_line(truth.y(), truth.x()).c_str());
+          std::printf(
+              "k %d %s step %.1f ms sim %.2f ms | charge %.4f (truth %.4f) M_cond %.4f (%.4f) %s\n",
+              k, r.name.c_str(), r.step_ms.back(), r.sim_ms.back(), r.filter->state()(0),
+              truth.x()[0], r.filter->state()(1), truth.x()[1],
+              r.trace_line(truth.y(), truth.x()).c_str());
       }
       if (k > 0 && k % static_cast<int>(1800.0 / a.period) == 0) {
         std::printf("  %s: %5.2f h simulated;", bench::truth_name(kind), (t + a.period) / 3600.0);
