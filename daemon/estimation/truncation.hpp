@@ -11,7 +11,7 @@
 // Applied once per active constraint, in order.
 //
 // Depth limit. Far beyond the bound (c << 0) the truncated variance tends to sigma^2 / c^2: a
-// posterior whose mean lies 5 sigma outside leaves 4 % of its variance along a. That is what a
+// posterior whose mean lies 5 sigma outside keeps 3 % of its variance along a. That is what a
 // Gaussian's tail says, but a posterior that puts 3e-7 of its mass on the feasible side is far
 // likelier wrong (a grossly wrong reading fused, an update linearised far from where it landed)
 // than right, and the tail shape is the part of it least to be trusted. Truncated as if its mean
