@@ -38,7 +38,8 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
     throw std::invalid_argument("EKF: process noise must have one entry per state");
   const auto n = static_cast<Eigen::Index>(n_), m = static_cast<Eigen::Index>(m_);
   x_ = x_prior_ = x_good_ = x_try_ = xdot_ = Eigen::VectorXd::Zero(n);
-  P_ = P_good_ = P_initial_ = P_prior_ = F_ = Qc_ = Qd_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  P_ = P_good_ = P_initial_ = P_prior_ = F_ = tmp_ = b_ = Eigen::MatrixXd::Zero(n, n);
+  qc_ = Eigen::VectorXd::Zero(n);
   y_try_ = Eigen::VectorXd::Zero(m);
   H_ = Eigen::MatrixXd::Zero(m, n);
   y_ = Eigen::VectorXd::Zero(m);
@@ -47,7 +48,7 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   const auto& states = model.layout().states;
   for (Eigen::Index i = 0; i < n; ++i) {
     const auto& s = states[static_cast<std::size_t>(i)];
-    Qc_(i, i) =
+    qc_(i) =
         process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
     // A standard deviation wider than the state's whole physical range carries no information
     // and only invites overflow: clamp the variance there.
@@ -167,17 +168,17 @@ StepStatus Ekf::predict(std::span<const double> u, double dt) {
   if (!r.ok()) {
     // Keep the estimate, admit we know less: add the process noise of the period.
     ++counters_.predict_failures;
-    P_.diagonal() += dt * Qc_.diagonal();
+    P_.diagonal() += dt * qc_;
     const StepStatus health = finish_step();
     return health == StepStatus::kOk ? StepStatus::kModelError : health;
   }
   std::copy(x_buf_.begin(), x_buf_.end(), x_.data());
+  // P = F P Fᵀ + Q_d with the trapezoidal Q_d = (dt/2) (F Qc Fᵀ + Qc), as
+  // F (P + (dt/2) Qc) Fᵀ + (dt/2) Qc: two products of n x n matrices instead of four.
+  P_.diagonal() += (0.5 * dt) * qc_;
   tmp_.noalias() = F_ * P_;
   P_.noalias() = tmp_ * F_.transpose();
-  tmp_.noalias() = F_ * Qc_;
-  Qd_.noalias() = tmp_ * F_.transpose();
-  Qd_ += Qc_;
-  P_ += (0.5 * dt) * Qd_;
+  P_.diagonal() += (0.5 * dt) * qc_;
   return finish_step();
 }
 

@@ -163,7 +163,8 @@ class Ekf final : public Estimator {
   plant::Integrator integrator_;
 
   Eigen::VectorXd x_, x_prior_, x_good_;
-  Eigen::MatrixXd P_, P_good_, P_initial_, F_, Qc_, Qd_, tmp_;
+  Eigen::MatrixXd P_, P_good_, P_initial_, F_, tmp_;
+  Eigen::VectorXd qc_;                    // Qc's diagonal: process-noise intensities squared
   Eigen::MatrixXd P_prior_;               // P before this update's fusion (after a reset: P0)
   Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
   std::uint64_t step_backs_ = 0;

@@ -114,6 +114,17 @@ inline double release_s() {
   return r != nullptr ? std::atof(r) : config::EstimatorConfig{}.parameter_release_s;
 }
 
+// The plain simulation the step is timed against: the EKF's state tolerances (BENCH_RTOL
+// included), without F.
+inline plant::IntegratorOptions plain_options() {
+  plant::IntegratorOptions o;
+  const plant::IntegratorOptions f = est::filter_integrator_options();
+  o.rel_tol = f.rel_tol;
+  o.abs_tol_scale = f.abs_tol_scale;
+  tolerance_from_env(o, "BENCH_RTOL");
+  return o;
+}
+
 struct FilterRun {
   std::string name;
   std::unique_ptr<TimedModel> model;
@@ -197,7 +208,7 @@ struct FilterRun {
     } else {
       phases->apply(*filter, t, u);
       std::vector<double> xs(filter->state().data(), filter->state().data() + n);
-      plant::Integrator sim(*model, plant::IntegratorOptions{});
+      plant::Integrator sim(*model, plain_options());
       const auto ts = Clock::now();
       sim.step(xs, u, period, {});
       sim_ms.push_back(ms_since(ts));
