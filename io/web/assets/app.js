@@ -193,6 +193,12 @@
     li.dataset.leakState = leak;
     li.dataset.stale = s.stale;
     li.dataset.cycle = s.health ? s.health.cycle : "";
+    // When the cycle was published (its stamp, the tick, plus the cycle's own time: the health
+    // sample is written at the cycle's end) and when the page showed it: the browser test's
+    // latency figure.
+    li.dataset.stampMs = s.health ? nsToMs(s.health.timestamp_ns) : "";
+    li.dataset.publishedMs = s.health ? nsToMs(s.health.timestamp_ns) + s.health.cycle_time_ms : "";
+    li.dataset.shownMs = Date.now();
     li.classList.toggle("leak", leak === "LEAK");
     li.classList.toggle("suspect", leak === "SUSPECT");
     li.classList.toggle("stale", stale);
@@ -242,7 +248,7 @@
         ` (${ago(age)}), ${num(s.health.cycle_time_ms, 1)} ms`;
     }
     const note = li.querySelector(".stale-note");
-    note.textContent = s.stale === "NO" ? "" : `⏸ STALE: ${STALE_TEXT[s.stale] || s.stale}; last data ${ago(age)}`;
+    note.textContent = s.stale === "NO" ? "" : `STALE: ${STALE_TEXT[s.stale] || s.stale}; last data ${ago(age)}`;
   }
 
   function footer() {
@@ -413,7 +419,7 @@
     box.replaceChildren();
     box.dataset.leakState = leak;
     box.dataset.stale = s.stale;
-    if (s.stale !== "NO") box.append(badge("Status", `⏸ STALE: ${STALE_TEXT[s.stale] || s.stale}`, "stale"));
+    if (s.stale !== "NO") box.append(badge("Status", `STALE: ${STALE_TEXT[s.stale] || s.stale}`, "stale"));
     if (s.leak) {
       const held = s.leak.hold !== "NONE" ? ` (${(HOLD_TEXT[s.leak.hold] || s.leak.hold)})` : "";
       box.append(badge("Leak", `${STATE_ICON[leak]} ${leak}${held}`,
