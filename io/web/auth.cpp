@@ -158,9 +158,16 @@ Auth authorize(const Credentials& credentials, std::string_view authorization) {
     if (colon == std::string::npos) return Auth::kDenied;
     const std::string_view user = std::string_view(*decoded).substr(0, colon);
     const std::string_view password = std::string_view(*decoded).substr(colon + 1);
-    for (const auto& [u, p] : credentials.users)  // every entry, whatever matched before
-      ok = (same(user, u) & same(password, p)) | ok;
-    if (!credentials.token.empty()) ok = same(password, credentials.token) | ok;
+    // Every entry compared, whatever matched before, both fields of each: no early exit.
+    for (const auto& [u, p] : credentials.users) {
+      const bool user_ok = same(user, u);
+      const bool password_ok = same(password, p);
+      ok = (user_ok && password_ok) || ok;
+    }
+    if (!credentials.token.empty()) {
+      const bool token_ok = same(password, credentials.token);
+      ok = token_ok || ok;
+    }
   }
   return ok ? Auth::kAllowed : Auth::kDenied;
 }

@@ -143,8 +143,8 @@ SeriesWindow Series::window(std::int64_t now_ms, std::int64_t window_ms,
     Grouper group(out.points);
     for (std::size_t i = lo, in_group = 0; i < fine_.size(); ++i) {
       const Sample& s = fine_at(i);
-      group.add(s.t_ms, s.value, s.sigma, double{s.value} - 2.0 * double{s.sigma},
-                double{s.value} + 2.0 * double{s.sigma}, 1.0);
+      const auto v = static_cast<double>(s.value), sd = static_cast<double>(s.sigma);
+      group.add(s.t_ms, v, sd, v - 2.0 * sd, v + 2.0 * sd, 1.0);
       if (++in_group == per_group) {
         group.flush();
         in_group = 0;
@@ -165,7 +165,8 @@ SeriesWindow Series::window(std::int64_t now_ms, std::int64_t window_ms,
   for (std::int64_t m = first_minute; m <= last_minute_; ++m) {
     const Bucket& b = minute_at(static_cast<std::size_t>(m - oldest_minute));
     if (b.n > 0)
-      group.add(m * kMinuteMs, b.sum_value, b.sum_sigma, b.lo, b.hi, static_cast<double>(b.n));
+      group.add(m * kMinuteMs, static_cast<double>(b.sum_value), static_cast<double>(b.sum_sigma),
+                static_cast<double>(b.lo), static_cast<double>(b.hi), static_cast<double>(b.n));
     // Groups aligned to whole multiples of per_group minutes since the first.
     if (static_cast<std::size_t>(m - first_minute + 1) % per_group == 0) group.flush();
   }

@@ -34,10 +34,10 @@ namespace hvac_twin::web {
 
 struct StoreLimits {
   std::size_t max_units = 64;
-  std::size_t max_keys_per_unit = 200;    // virtual sensors + points + consistency entries
-  std::size_t max_series_per_unit = 200;  // heat pump: 24 sensors + 2 x 7 points + 5 = 43
-  std::size_t fine_capacity = 720;        // samples: 1 h at the 5 s period
-  std::size_t minute_capacity = 1440;     // minute buckets: 24 h
+  std::size_t max_keys_per_unit = 200;   // virtual sensors + points + consistency entries
+  std::size_t max_series_per_unit = 96;  // heat pump: 24 sensors + 2 x 7 points + 5 = 43
+  std::size_t fine_capacity = 720;       // samples: 1 h at the 5 s period
+  std::size_t minute_capacity = 1440;    // minute buckets: 24 h
 };
 
 enum class Stale : std::uint8_t {

@@ -89,6 +89,12 @@
   function unitHash(site, unit) {
     return `#/unit/${encodeURIComponent(site)}/${encodeURIComponent(unit)}`;
   }
+  // " · LEAK since 12:03:40" while an episode lasts.
+  function sinceText(l) {
+    if (l.leak_since_ns > 0) return ` · LEAK since ${HvacChart.clock(nsToMs(l.leak_since_ns), true)}`;
+    if (l.suspect_since_ns > 0) return ` · SUSPECT since ${HvacChart.clock(nsToMs(l.suspect_since_ns), true)}`;
+    return "";
+  }
   function leakState(summary) {
     return summary.leak ? summary.leak.state : "NONE";
   }
@@ -228,6 +234,7 @@
     if (s.leak) {
       const ref = s.leak.charge_reference > 0 ? `, commissioned ${s.leak.charge_reference.toFixed(3)}` : "";
       fact("Charge", `${valueText(s.leak.charge, s.leak.charge_sigma, "kg")} (nameplate ${s.leak.nameplate_charge.toFixed(3)}${ref})`);
+      fact("Leak test", `${num(s.leak.cusum, 1)} of ${num(s.leak.threshold, 1)}${sinceText(s.leak)}`);
     }
     ageTile(li);
     const note = li.querySelector(".stale-note");
@@ -422,7 +429,9 @@
     if (s.stale !== "NO") box.append(badge("Status", `STALE: ${STALE_TEXT[s.stale] || s.stale}`, "stale"));
     if (s.leak) {
       const held = s.leak.hold !== "NONE" ? ` (${(HOLD_TEXT[s.leak.hold] || s.leak.hold)})` : "";
-      box.append(badge("Leak", `${STATE_ICON[leak]} ${leak}${held}`,
+      const since = leak === "LEAK" ? s.leak.leak_since_ns : leak === "SUSPECT" ? s.leak.suspect_since_ns : 0;
+      const sinceClock = since > 0 ? ` since ${HvacChart.clock(nsToMs(since), true)}` : "";
+      box.append(badge("Leak", `${STATE_ICON[leak]} ${leak}${sinceClock}${held}`,
         leak === "LEAK" ? "bad" : leak === "SUSPECT" ? "warn" : "ok"));
     }
     box.append(badge("Estimate", estimateText(s),
@@ -499,7 +508,7 @@
           { label: "charge", points: pointsOf("leak/charge_cusum").points, color: COLORS[1], band: "none", dash: "4 2" },
         ],
         refs: [{ y: l.threshold, label: `LEAK ${l.threshold.toFixed(2)}`, color: "#8f1414" },
-               { y: l.threshold / 2, label: `SUSPECT ${(l.threshold / 2).toFixed(2)}`, color: "#8a5a00" }],
+               { y: l.threshold / 2, label: `SUSPECT ${(l.threshold / 2).toFixed(2)}`, color: "#8a5a00", below: true }],
         latest: `rate ${l.rate_cusum.toFixed(2)} · charge ${l.charge_cusum.toFixed(2)}`,
         legend: "solid: on the leak rate · dashed: on the charge deficit",
         describe: `rate CUSUM ${l.rate_cusum.toFixed(2)}, charge CUSUM ${l.charge_cusum.toFixed(2)}, threshold ${l.threshold.toFixed(2)}`,

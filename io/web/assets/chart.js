@@ -75,7 +75,8 @@ const HvacChart = (() => {
   }
 
   // spec: { from, to (ms), series: [{label, points: [{t, v, s, lo, hi}], color, band: "value" |
-  // "zero" | "none", dash}], refs: [{y, label, color}], latest: text, describe: text }
+  // "zero" | "none", dash}], refs: [{y, label, color, below}], latest: text, legend: text,
+  // describe: text (the SVG's accessible name) }
   function draw(chart, spec) {
     const svg = chart.svg;
     while (svg.firstChild) svg.removeChild(svg.firstChild);
@@ -147,7 +148,7 @@ const HvacChart = (() => {
       if (!isFinite(r.y) || r.y < lo || r.y > hi) continue;
       el("line", { x1: L, x2: W - R, y1: y(r.y), y2: y(r.y), stroke: r.color, "stroke-width": 1.2,
                    "stroke-dasharray": "5 3" }, svg);
-      const t = el("text", { x: W - R - 3, y: y(r.y) - 3, "text-anchor": "end" }, svg);
+      const t = el("text", { x: W - R - 3, y: y(r.y) + (r.below ? 10 : -3), "text-anchor": "end" }, svg);
       t.textContent = r.label;
       t.setAttribute("fill", r.color);
     }
