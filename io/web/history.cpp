@@ -124,51 +124,59 @@ SeriesWindow Series::window(std::int64_t now_ms, std::int64_t window_ms,
                             std::size_t max_points) const {
   SeriesWindow out;
   if (empty_) return out;
-  max_points = std::max<std::size_t>(max_points, 1);
+  max_points = std::max<std::size_t>(max_points, 2);
   const std::int64_t from = now_ms - window_ms;
+  // The fine ring holds every sample of the window unless it overwrote one inside it; then the
+  // minute buckets older than its oldest sample come first, with half the points.
   const bool fine_complete = !evicted_ || evicted_t_ms_ < from;
-  if (fine_complete) {
-    // The first sample inside the window, by binary search over the ring (ordered by time).
-    std::size_t lo = 0, hi = fine_.size();
-    while (lo < hi) {
-      const std::size_t mid = (lo + hi) / 2;
-      if (fine_at(mid).t_ms < from)
-        lo = mid + 1;
-      else
-        hi = mid;
-    }
-    const std::size_t count = fine_.size() - lo;
-    const std::size_t per_group = (count + max_points - 1) / std::max<std::size_t>(max_points, 1);
-    out.points.reserve(std::min(count, max_points));
-    Grouper group(out.points);
-    for (std::size_t i = lo, in_group = 0; i < fine_.size(); ++i) {
-      const Sample& s = fine_at(i);
-      const auto v = static_cast<double>(s.value), sd = static_cast<double>(s.sigma);
-      group.add(s.t_ms, v, sd, v - 2.0 * sd, v + 2.0 * sd, 1.0);
-      if (++in_group == per_group) {
-        group.flush();
-        in_group = 0;
+  std::size_t fine_points = max_points;
+  if (!fine_complete) {
+    out.minute_resolution = true;
+    const std::size_t minute_points = max_points / 2;
+    fine_points = max_points - minute_points;
+    const std::int64_t oldest_minute =
+        last_minute_ - static_cast<std::int64_t>(minutes_.size()) + 1;
+    const std::int64_t first_minute = std::max(oldest_minute, minute_of(from));
+    // Up to the minute holding the fine ring's oldest sample (that minute's earlier samples
+    // survive only in its bucket).
+    const std::int64_t last_minute = std::min(last_minute_, minute_of(fine_at(0).t_ms));
+    if (first_minute <= last_minute) {
+      const auto span = static_cast<std::size_t>(last_minute - first_minute + 1);
+      const std::size_t per_group = (span + minute_points - 1) / minute_points;
+      out.points.reserve(std::min(span, minute_points) + std::min(fine_.size(), fine_points));
+      Grouper group(out.points);
+      for (std::int64_t m = first_minute; m <= last_minute; ++m) {
+        const Bucket& b = minute_at(static_cast<std::size_t>(m - oldest_minute));
+        if (b.n > 0)
+          group.add(m * kMinuteMs, static_cast<double>(b.sum_value),
+                    static_cast<double>(b.sum_sigma), static_cast<double>(b.lo),
+                    static_cast<double>(b.hi), static_cast<double>(b.n));
+        // Groups aligned to whole multiples of per_group minutes since the first.
+        if (static_cast<std::size_t>(m - first_minute + 1) % per_group == 0) group.flush();
       }
+      group.flush();
     }
-    group.flush();
-    return out;
   }
-
-  out.minute_resolution = true;
-  const std::int64_t oldest_minute = last_minute_ - static_cast<std::int64_t>(minutes_.size()) + 1;
-  const std::int64_t first_minute = std::max(oldest_minute, minute_of(from));
-  if (first_minute > last_minute_) return out;
-  const std::size_t span = static_cast<std::size_t>(last_minute_ - first_minute + 1);
-  const std::size_t per_group = (span + max_points - 1) / max_points;
-  out.points.reserve(std::min(span, max_points));
+  // The first sample inside the window, by binary search over the ring (ordered by time).
+  std::size_t lo = 0, hi = fine_.size();
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (fine_at(mid).t_ms < from)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  const std::size_t count = fine_.size() - lo;
+  const std::size_t per_group = (count + fine_points - 1) / fine_points;
   Grouper group(out.points);
-  for (std::int64_t m = first_minute; m <= last_minute_; ++m) {
-    const Bucket& b = minute_at(static_cast<std::size_t>(m - oldest_minute));
-    if (b.n > 0)
-      group.add(m * kMinuteMs, static_cast<double>(b.sum_value), static_cast<double>(b.sum_sigma),
-                static_cast<double>(b.lo), static_cast<double>(b.hi), static_cast<double>(b.n));
-    // Groups aligned to whole multiples of per_group minutes since the first.
-    if (static_cast<std::size_t>(m - first_minute + 1) % per_group == 0) group.flush();
+  for (std::size_t i = lo, in_group = 0; i < fine_.size(); ++i) {
+    const Sample& s = fine_at(i);
+    const auto v = static_cast<double>(s.value), sd = static_cast<double>(s.sigma);
+    group.add(s.t_ms, v, sd, v - 2.0 * sd, v + 2.0 * sd, 1.0);
+    if (++in_group == per_group) {
+      group.flush();
+      in_group = 0;
+    }
   }
   group.flush();
   return out;

@@ -31,7 +31,7 @@ struct SeriesPoint {
 
 // What window() returns: points oldest first and the resolution they come from.
 struct SeriesWindow {
-  bool minute_resolution = false;  // false: the fine ring; true: the minute buckets
+  bool minute_resolution = false;  // true: minute buckets first, then the fine ring's samples
   std::vector<SeriesPoint> points;
 };
 
@@ -47,8 +47,9 @@ class Series {
 
   // The samples with t >= now_ms - window_ms, at most `max_points` of them (consecutive samples
   // merged into groups when there are more: mean value and sigma, envelope of the band). From the
-  // fine ring when it holds every sample of the window (none it overwrote is inside it),
-  // otherwise from the minute buckets. max_points >= 1.
+  // fine ring when it holds every sample of the window (none it overwrote is inside it);
+  // otherwise the minute buckets up to the fine ring's oldest sample (at most max_points / 2
+  // points), then the fine ring (the rest): the recent end always at full resolution.
   SeriesWindow window(std::int64_t now_ms, std::int64_t window_ms, std::size_t max_points) const;
 
   std::size_t fine_size() const noexcept { return fine_.size(); }

@@ -336,10 +336,11 @@
       }
       state.series = series;
       $("resolution").textContent = coarse
-        ? "one-minute buckets: line = mean, band = min(v − 2σ) to max(v + 2σ)"
-        : "full resolution: line = value, band = ± 2σ";
-      // Minute buckets are not extended live: fetched again each minute.
-      if (coarse) state.historyTimer = setTimeout(loadHistory, 60000);
+        ? "older than the server keeps every sample: one-minute buckets (line = mean, band = " +
+          "min(v − 2σ) to max(v + 2σ)); recent: every sample, band = ± 2σ"
+        : "every sample: line = value, band = ± 2σ";
+      // New samples are appended live; the buckets are fetched again each minute.
+      if (coarse) state.historyTimer = setTimeout(() => loadHistory().catch(() => {}), 60000);
       scheduleRender(0);
     });
   }
@@ -356,7 +357,7 @@
       series = { unit, resolution: "sample", points: [] };
       state.series.set(key, series);
     }
-    if (series.resolution !== "sample" || !isFinite(v)) return;
+    if (!isFinite(v)) return;
     const t = nsToMs(tNs);
     const pts = series.points;
     if (pts.length && t <= pts[pts.length - 1].t) return;

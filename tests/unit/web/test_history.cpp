@@ -1,6 +1,7 @@
 // The bounded history of one series (io/web/history.hpp): the rings never outgrow their
-// capacity, the window comes from the fine ring while it reaches back far enough and from the
-// minute buckets otherwise, and downsampling keeps the mean and the envelope of the ±2σ band.
+// capacity, the window comes from the fine ring while it reaches back far enough and otherwise
+// from the minute buckets up to the fine ring's oldest sample and the fine ring after it, and
+// downsampling keeps the mean and the envelope of the ±2σ band.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
@@ -43,18 +44,22 @@ TEST_CASE("history: minute buckets keep the mean and the envelope of the 2-sigma
     REQUIRE(s.add(kT0 + i * 5000, i, i == 7 ? 3.0 : 0.5));
   // And one sample in the next minute.
   REQUIRE(s.add(kT0 + Series::kMinuteMs + 1000, 100.0, 1.0));
-  // A window longer than the fine ring reaches (8 samples): minute resolution.
+  // A window longer than the fine ring reaches (8 samples): the minute before its oldest sample
+  // from the bucket, then the 8 samples at full resolution.
   const auto w = s.window(kT0 + 2 * Series::kMinuteMs, 10 * Series::kMinuteMs, 100);
   REQUIRE(w.minute_resolution);
-  REQUIRE(w.points.size() == 2);
+  REQUIRE(w.points.size() == 9);
   const SeriesPoint& m = w.points[0];
   CHECK(m.t_ms == kT0);
   CHECK(m.value == Approx(5.5));
   CHECK(m.sigma == Approx((11 * 0.5 + 3.0) / 12));
   CHECK(m.lo == Approx(0.0 - 2 * 0.5));  // min(v - 2s): sample 0
   CHECK(m.hi == Approx(7.0 + 2 * 3.0));  // max(v + 2s): the outlier's band, not the max value's
-  CHECK(w.points[1].value == Approx(100.0));
-  CHECK(w.points[1].t_ms == kT0 + Series::kMinuteMs);
+  CHECK(w.points[1].t_ms == kT0 + 5 * 5000);  // the oldest sample the fine ring kept
+  CHECK(w.points[1].value == 5.0);
+  CHECK(w.points[1].hi == Approx(6.0));
+  CHECK(w.points.back().value == Approx(100.0));
+  CHECK(w.points.back().t_ms == kT0 + Series::kMinuteMs + 1000);
 }
 
 TEST_CASE("history: a day of minutes at 5 s, asked for the last hour, the day, or in fewer points",
@@ -70,11 +75,15 @@ TEST_CASE("history: a day of minutes at 5 s, asked for the last hour, the day, o
   CHECK(hour.points.size() == 720);
   const auto hour_300 = s.window(now, 3600 * 1000, 300);
   CHECK(hour_300.points.size() == 240);
-  // The day: from the minute buckets, 1440 of them, or merged into at most 300 points whose
-  // band still contains every sample's band.
-  const auto day = s.window(now, 86'400'000, 2000);
+  // The day: the 1381 minute buckets up to the fine ring's oldest sample, then its 720 samples;
+  // or merged into at most 300 points whose band still contains every sample's band.
+  const auto day = s.window(now, 86'400'000, 4000);
   CHECK(day.minute_resolution);
-  CHECK(day.points.size() == 1440);
+  REQUIRE(day.points.size() == 1381 + 720);
+  CHECK(day.points[0].t_ms == kT0);
+  CHECK(day.points[1380].t_ms == kT0 + 1380 * Series::kMinuteMs);
+  CHECK(day.points[1381].t_ms == now - 720 * 5000);
+  CHECK(day.points.back().t_ms == now - 5000);
   const auto day_300 = s.window(now, 86'400'000, 300);
   CHECK(day_300.points.size() <= 300);
   CHECK(day_300.points.size() >= 280);
@@ -103,9 +112,10 @@ TEST_CASE("history: gaps are empty minutes, old or repeated samples and NaN are 
     REQUIRE(s.add(kT0 + 6 * Series::kMinuteMs + i, 3.0, 0.1));
   const auto w = s.window(kT0 + 7 * Series::kMinuteMs, 10 * Series::kMinuteMs, 100);
   REQUIRE(w.minute_resolution);
-  REQUIRE(w.points.size() == 2);
+  REQUIRE(w.points.size() == 2 + 4);  // two buckets with data, the four samples the ring kept
   CHECK(w.points[0].t_ms == kT0);
   CHECK(w.points[1].t_ms == kT0 + 6 * Series::kMinuteMs);
+  CHECK(w.points[2].t_ms == kT0 + 6 * Series::kMinuteMs + 1);
   // A gap longer than the whole ring starts it afresh.
   REQUIRE(s.add(kT0 + 100 * Series::kMinuteMs, 5.0, 0.1));
   CHECK(s.minute_size() == 1);
