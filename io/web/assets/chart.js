@@ -41,16 +41,18 @@ const HvacChart = (() => {
   const TIME_STEPS = [10e3, 30e3, 60e3, 120e3, 300e3, 600e3, 900e3, 1800e3, 3600e3, 7200e3,
                       10800e3, 21600e3, 43200e3];
 
-  // Splits points where the spacing jumps (no data for a while).
+  // Splits points where no data came for a while: a gap more than 3 times both its neighbouring
+  // gaps (and over 1.5 s). Minute buckets followed by every sample keep their line; a pause of the
+  // samples, or an hour without buckets, breaks it.
   function segments(points) {
     if (points.length < 2) return [points];
     const gaps = [];
     for (let i = 1; i < points.length; i++) gaps.push(points[i].t - points[i - 1].t);
-    const sorted = gaps.slice().sort((a, b) => a - b);
-    const typical = sorted[Math.floor(sorted.length / 2)] || 1;
     const out = [[points[0]]];
     for (let i = 1; i < points.length; i++) {
-      if (gaps[i - 1] > Math.max(3 * typical, 1500)) out.push([]);
+      const g = gaps[i - 1];
+      const around = Math.max(i >= 2 ? gaps[i - 2] : 0, i < gaps.length ? gaps[i] : 0);
+      if (g > Math.max(3 * around, 1500) && around > 0) out.push([]);
       out[out.length - 1].push(points[i]);
     }
     return out;
@@ -127,6 +129,9 @@ const HvacChart = (() => {
     const tstep = TIME_STEPS.find((s) => span / s <= 5) || 86400e3;
     for (let t = Math.ceil(from / tstep) * tstep; t <= to; t += tstep) {
       el("line", { x1: x(t), x2: x(t), y1: T, y2: H - B, stroke: "#eef1f4" }, svg);
+      // A label that would stick out of the plot's ends is left out (its grid line stays).
+      const half = tstep < 60e3 ? 20 : 14;
+      if (x(t) - half < L - 8 || x(t) + half > W) continue;
       const label = el("text", { x: x(t), y: H - 6, "text-anchor": "middle" }, svg);
       label.textContent = clock(t, tstep < 60e3);
     }
