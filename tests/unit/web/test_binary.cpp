@@ -86,7 +86,7 @@ TEST_CASE("hvac-twin-web: bad input is named, with the exit codes of hvac-twin-e
 }
 
 TEST_CASE(
-    "hvac-twin-web: real DDS samples reach the API and the stream; a silent publisher "
+    "hvac-twin-web: real DDS samples reach the API and the stream, and a silent publisher "
     "turns stale",
     "[web][binary][dds]") {
   const config::DdsConfig dds_config = dds::test::loopback_config(kDomainWeb);
