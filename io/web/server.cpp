@@ -143,7 +143,8 @@ void Server::start() {
   thread_ = std::thread([this] { http_->listen_after_bind(); });
   // Until the listener runs, cpp-httplib's stop() does nothing: a stop() right after start()
   // would leave the thread listening and join() waiting for ever.
-  while (!http_->is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  while (!http_->is_running())
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
 void Server::stop() {
