@@ -2,7 +2,8 @@
 # The live demo, all on this machine: hvac-twin-sim simulates an R32 split heat pump cooling a
 # zone through a summer day (its outdoor coil 7 % fouled) and serves its sensor points over
 # Modbus TCP on 127.0.0.1:15021; hvac-twind estimates it in real time and publishes over DDS on
-# the loopback interface; hvac-twin-echo prints what a dashboard would receive.
+# the loopback interface; hvac-twin-web serves the live dashboard on http://127.0.0.1:15080/
+# (HVAC_TWIN_WEB_PORT to change it; 127.0.0.1 only); hvac-twin-echo prints the samples.
 # Usage: daemon/run-demo.sh [BUILD_DIR] [SECONDS] [CONFIG]
 #   default: build, until Ctrl-C, config/demo-heat-pump.json (config/demo.json: the zone model)
 set -euo pipefail
@@ -39,7 +40,17 @@ sleep 0.5
   2> >(trap '' INT TERM; exec sed -u 's/^/[hvac-twind] /' >&2) &
 pids+=($!)
 
+web_port=${HVAC_TWIN_WEB_PORT:-15080}
+"$build/io/web/hvac-twin-web" --domain 0 --listen "127.0.0.1:$web_port" 2>"$logs/web.log" &
+pids+=($!)
+for _ in $(seq 50); do grep -q "serving" "$logs/web.log" && break; sleep 0.1; done
+
 echo "hvac-twin demo: $(basename "$config"), simulated plant on Modbus 127.0.0.1, DDS domain 0 on lo."
+if grep -q "serving" "$logs/web.log"; then
+  echo "Dashboard: http://127.0.0.1:$web_port/ (open it in a browser on this machine)"
+else
+  echo "Dashboard: not started: $(tail -n 1 "$logs/web.log") (HVAC_TWIN_WEB_PORT=N picks another port)"
+fi
 echo "Each line is a DDS sample: virtual sensors (value ± 1 sigma), health, leak diagnosis. Ctrl-C stops."
 echo "Logs and the simulated truth: $logs"
 echo

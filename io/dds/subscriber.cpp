@@ -167,8 +167,10 @@ UnitEstimateRecord convert(const hvac_twin_UnitEstimate& w, dds_time_t source_ts
 
 // Takes every available sample of one reader into `out`. The wire types hold only bounded
 // (inline) strings, so Cyclone deserialises straight into the caller-provided array.
+// Invalid samples carry the instance's key: its site and unit come first in every topic's key.
 template <typename Wire>
-std::ptrdiff_t take_all(dds_entity_t reader, std::vector<Record>& out, std::int32_t& error) {
+std::ptrdiff_t take_all(dds_entity_t reader, Topic topic, std::vector<Record>& out,
+                        std::vector<InstanceLost>* lost, std::int32_t& error) {
   constexpr std::size_t kBatch = 16;
   Wire samples[kBatch]{};
   void* buffers[kBatch];
@@ -183,7 +185,13 @@ std::ptrdiff_t take_all(dds_entity_t reader, std::vector<Record>& out, std::int3
       return -1;
     }
     for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data) continue;  // dispose / no-writers notifications
+      if (!infos[i].valid_data) {  // dispose / no-writers notifications
+        if (lost != nullptr && infos[i].instance_state != DDS_IST_ALIVE)
+          lost->push_back({topic, std::string(detail::view_bounded(samples[i].site)),
+                           std::string(detail::view_bounded(samples[i].unit)),
+                           infos[i].instance_state == DDS_IST_NOT_ALIVE_DISPOSED});
+        continue;
+      }
       out.emplace_back(convert(samples[i], infos[i].source_timestamp));
       ++taken;
     }
@@ -232,17 +240,17 @@ Subscriber::Subscriber(Participant& participant, std::string_view topic_prefix, 
 
 Subscriber::~Subscriber() = default;
 
-std::ptrdiff_t Subscriber::wait_and_take(std::chrono::nanoseconds timeout,
-                                         std::vector<Record>& out) {
+std::ptrdiff_t Subscriber::wait_and_take(std::chrono::nanoseconds timeout, std::vector<Record>& out,
+                                         std::vector<InstanceLost>* lost) {
   const dds_return_t rc = dds_waitset_wait(readers_->waitset.get(), nullptr, 0, timeout.count());
   if (rc < 0) {
     last_error_ = rc;
     return -1;
   }
-  return rc == 0 ? 0 : take(out);
+  return rc == 0 ? 0 : take(out, lost);
 }
 
-std::ptrdiff_t Subscriber::take(std::vector<Record>& out) {
+std::ptrdiff_t Subscriber::take(std::vector<Record>& out, std::vector<InstanceLost>* lost) {
   std::ptrdiff_t total = 0;
   for (const Topic topic : kAllTopics) {
     const dds_entity_t reader = readers_->readers[static_cast<int>(topic)].get();
@@ -250,22 +258,22 @@ std::ptrdiff_t Subscriber::take(std::vector<Record>& out) {
     std::ptrdiff_t n = 0;
     switch (topic) {
       case Topic::kVirtualSensor:
-        n = take_all<hvac_twin_VirtualSensor>(reader, out, last_error_);
+        n = take_all<hvac_twin_VirtualSensor>(reader, topic, out, lost, last_error_);
         break;
       case Topic::kObservation:
-        n = take_all<hvac_twin_Observation>(reader, out, last_error_);
+        n = take_all<hvac_twin_Observation>(reader, topic, out, lost, last_error_);
         break;
       case Topic::kEstimatorHealth:
-        n = take_all<hvac_twin_EstimatorHealth>(reader, out, last_error_);
+        n = take_all<hvac_twin_EstimatorHealth>(reader, topic, out, lost, last_error_);
         break;
       case Topic::kLeakDiagnostic:
-        n = take_all<hvac_twin_LeakDiagnostic>(reader, out, last_error_);
+        n = take_all<hvac_twin_LeakDiagnostic>(reader, topic, out, lost, last_error_);
         break;
       case Topic::kEstimatorConsistency:
-        n = take_all<hvac_twin_EstimatorConsistency>(reader, out, last_error_);
+        n = take_all<hvac_twin_EstimatorConsistency>(reader, topic, out, lost, last_error_);
         break;
       case Topic::kUnitEstimate:
-        n = take_all<hvac_twin_UnitEstimate>(reader, out, last_error_);
+        n = take_all<hvac_twin_UnitEstimate>(reader, topic, out, lost, last_error_);
         break;
     }
     if (n < 0) return -1;

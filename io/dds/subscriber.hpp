@@ -123,6 +123,18 @@ struct TopicSet {
   bool contains(Topic topic) const noexcept;
 };
 
+// An instance that lost its writers without a sample: their liveliness lapsed (a killed or hung
+// publisher), they were deleted, or the instance was disposed. Cyclone delivers it as a sample
+// without data; only its key is known, and every topic's key starts with site and unit.
+struct InstanceLost {
+  Topic topic = Topic::kVirtualSensor;
+  std::string site, unit;
+  // false: no live writer (NOT_ALIVE_NO_WRITERS); true: disposed. Cyclone disposes the instances
+  // of an auto-disposing writer (the default, and the daemon's) when its liveliness lapses, so a
+  // killed publisher may show as either.
+  bool disposed = false;
+};
+
 // Communication status of one reader (cumulative counts since creation).
 struct ReaderStatus {
   std::uint32_t matched_writers = 0;   // writers currently matched
@@ -147,9 +159,12 @@ class Subscriber {
   // Waits up to `timeout` for data on any subscribed topic, then takes everything available
   // and appends it to `out` (samples with valid data only). Returns how many were appended;
   // 0 on timeout. Returns -1 if Cyclone reports an error (Cyclone's code in last_error()).
-  std::ptrdiff_t wait_and_take(std::chrono::nanoseconds timeout, std::vector<Record>& out);
+  // With `lost`, instances that lost their writers (or were disposed) are appended there;
+  // without, those notifications are taken and dropped.
+  std::ptrdiff_t wait_and_take(std::chrono::nanoseconds timeout, std::vector<Record>& out,
+                               std::vector<InstanceLost>* lost = nullptr);
   // Takes everything available without waiting; same results as wait_and_take.
-  std::ptrdiff_t take(std::vector<Record>& out);
+  std::ptrdiff_t take(std::vector<Record>& out, std::vector<InstanceLost>* lost = nullptr);
 
   // Status of the reader of `topic` (zeros if that topic is not subscribed). Throws
   // std::runtime_error if Cyclone cannot report it.

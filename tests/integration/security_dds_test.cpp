@@ -6,8 +6,12 @@
 //  - topic names, type names and values never cross the loopback in plaintext, while without
 //    DDS Security the same capture finds them (so the check can fail);
 //  - a tampered governance document, expired permissions, a missing file or an unresolvable
-//    ${CREDENTIALS_DIRECTORY} stop start-up with a clear message and without READY=1.
+//    ${CREDENTIALS_DIRECTORY} stop start-up with a clear message and without READY=1;
+//  - hvac-twin-web with the subscriber's identity (its files through ${CREDENTIALS_DIRECTORY})
+//    shows the secured daemon's unit; one without DDS Security shows nothing.
 // The network tests run in a private network namespace: the capture sees only this test.
+#include <httplib.h>
+
 #include <catch2/catch.hpp>
 #include <filesystem>
 
@@ -243,4 +247,74 @@ TEST_CASE("bad DDS Security material stops start-up with a clear error",
     CHECK_THAT(err, Catch::Contains(words));
   const auto notes = systemd.receive(200ms);
   CHECK(std::find(notes.begin(), notes.end(), "READY=1") == notes.end());
+}
+
+TEST_CASE("DDS Security: hvac-twin-web with a subscriber's identity shows the secured unit",
+          "[integration][security][web]") {
+  constexpr int kDomain = 205;  // hvac-twin-web's range (200..209)
+  const hvac_twin::test::ScratchDir pki_dir("security-web-pki");
+  const TestPki pki(pki_dir.path(), kDomain, kPrefix);
+  StackOptions o = zone_stack_options(kDomain);
+  o.customize = [&](nlohmann::json& c) {
+    c["dds"]["topic_prefix"] = kPrefix;
+    c["dds"]["security"] = security_json(pki.security("daemon"));
+  };
+  Stack secured("security-web", o);
+  secured.start_sim();
+  secured.start_daemon();
+  // The web's six files as LoadCredential= hands them over (a drop-in like dds-security.conf):
+  // through ${CREDENTIALS_DIRECTORY}, which hvac-twin-web resolves like the daemon.
+  const std::filesystem::path credentials = secured.path("web-credentials");
+  std::filesystem::create_directories(credentials);
+  std::vector<std::string> args{
+      "--domain", std::to_string(kDomain), "--topic-prefix", kPrefix, "--listen", "127.0.0.1:0"};
+  const auto subscriber = pki.security("subscriber");
+  const std::vector<std::pair<std::string, std::string>> files{
+      {"--identity-ca", subscriber.identity_ca},
+      {"--identity-certificate", subscriber.identity_certificate},
+      {"--private-key", subscriber.private_key},
+      {"--permissions-ca", subscriber.permissions_ca},
+      {"--governance", subscriber.governance},
+      {"--permissions", subscriber.permissions}};
+  for (const auto& [option, file] : files) {
+    const std::string name = option.substr(2);
+    std::filesystem::copy_file(file, credentials / name);
+    args.insert(args.end(), {option, "${CREDENTIALS_DIRECTORY}/" + name});
+  }
+  Process web(HVAC_TWIN_WEB_EXE, args, secured.path("web.out"), secured.path("web.err"),
+              {"CREDENTIALS_DIRECTORY=" + credentials.string()});
+  Process plain(
+      HVAC_TWIN_WEB_EXE,
+      {"--domain", std::to_string(kDomain), "--topic-prefix", kPrefix, "--listen", "127.0.0.1:0"},
+      secured.path("plain.out"), secured.path("plain.err"));
+  const auto port_of = [](Process& p) {
+    std::optional<std::vector<std::string>> m;
+    const bool up = eventually(
+        [&] {
+          return (m = regex_find(p.err(), R"(serving http://127\.0\.0\.1:(\d+)/)")).has_value();
+        },
+        20s);
+    return up ? std::stoi((*m)[1]) : 0;
+  };
+  const int web_port = port_of(web), plain_port = port_of(plain);
+  INFO("secured hvac-twin-web:\n"
+       << web.err() << "\nplain:\n"
+       << plain.err() << "\ndaemon:\n"
+       << secured.daemon().err());
+  REQUIRE(web_port > 0);
+  REQUIRE(plain_port > 0);
+  CHECK_THAT(web.err(), Catch::Contains("DDS Security on"));
+  const auto units = [](int port) {
+    httplib::Client http("127.0.0.1", port);
+    http.set_read_timeout(5, 0);
+    const auto r = http.Get("/api/overview");
+    return r && r->status == 200 ? nlohmann::json::parse(r->body)["units"] : nlohmann::json();
+  };
+  nlohmann::json shown;
+  REQUIRE(eventually([&] { return (shown = units(web_port)).size() == 1; }, 30s));
+  CHECK(shown[0]["unit"] == "zone1");
+  // Some cycles later the participant without DDS Security still has nothing.
+  std::this_thread::sleep_for(3s);
+  CHECK(units(plain_port).empty());
+  CHECK(units(web_port)[0]["health"]["cycle"] > shown[0]["health"]["cycle"]);
 }

@@ -3,11 +3,15 @@
 // system-call groups with systemd-analyze, and runs the daemon under hvac-twin-test-sandbox,
 // which applies both with seccomp (a refused system call kills the daemon, so none goes
 // unnoticed). The daemon starts, notifies, reads Modbus, publishes and shuts down cleanly; without
-// AF_NETLINK it stops at start-up with a message that names it.
+// AF_NETLINK it stops at start-up with a message that names it. hvac-twin-web, under its own
+// unit's filters, reads the daemon's DDS topics and serves the page and API.
+#include <httplib.h>
+
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "tests/integration/stack.hpp"
 #include "tests/integration/systemd_support.hpp"
@@ -148,4 +152,61 @@ TEST_CASE("without AF_NETLINK hvac-twind stops at start-up and says why",
   CHECK_THAT(err, Catch::Contains("RestrictAddressFamilies="));
   const auto notes = systemd.receive(200ms);
   CHECK(std::find(notes.begin(), notes.end(), "READY=1") == notes.end());
+}
+
+TEST_CASE("hvac-twin-web works under its unit's address-family and system-call filters",
+          "[integration][systemd][sandbox][web]") {
+  const auto unit =
+      parse_unit(std::string(HVAC_TWIN_SOURCE_DIR) + "/systemd/hvac-twin-web.service");
+  REQUIRE(unit.count("Service.RestrictAddressFamilies") == 1);
+  const std::set<std::string> syscalls = allowed_syscalls(unit.at("Service.SystemCallFilter"));
+  REQUIRE(syscalls.count("accept4") == 1);
+  REQUIRE(syscalls.count("setuid") == 0);
+  constexpr int kDomain = 203;  // hvac-twin-web's range (200..209)
+  Stack stack("sandbox-web", zone_stack_options(kDomain));
+  const std::string list = stack.path("web-syscalls.txt");
+  {
+    std::ofstream out(list);
+    for (const auto& s : syscalls)
+      out << s << "\n";
+  }
+  stack.start_sim();
+  stack.start_daemon();
+  std::vector<std::string> args{"--address-families",
+                                families(unit.at("Service.RestrictAddressFamilies").back()),
+                                "--syscalls", list};
+  if (kLeakCheckNeedsPtrace) {
+    const char* asan = std::getenv("ASAN_OPTIONS");
+    args.insert(args.end(), {"--setenv", std::string("ASAN_OPTIONS=") + (asan ? asan : "") +
+                                             ":detect_leaks=0"});
+  }
+  args.insert(args.end(), {"--", HVAC_TWIN_WEB_EXE, "--domain", std::to_string(kDomain), "--listen",
+                           "127.0.0.1:0"});
+  Process web(HVAC_TWIN_SANDBOX_EXE, args, stack.path("web.out"), stack.path("web.err"));
+  std::optional<std::vector<std::string>> served;
+  REQUIRE(eventually(
+      [&] {
+        return (served = regex_find(web.err(), R"(serving http://127\.0\.0\.1:(\d+)/)"))
+            .has_value();
+      },
+      20s));
+  INFO("hvac-twin-web log:\n" << web.err());
+  // The daemon's unit reaches the sandboxed dashboard over DDS, and the page and API over HTTP.
+  httplib::Client http("127.0.0.1", std::stoi((*served)[1]));
+  http.set_read_timeout(5, 0);
+  const bool unit_shown = eventually(
+      [&] {
+        const auto r = http.Get("/api/overview");
+        return r && r->status == 200 && nlohmann::json::parse(r->body)["units"].size() == 1;
+      },
+      20s);
+  CHECK(unit_shown);
+  const auto page = http.Get("/");
+  REQUIRE(page);
+  CHECK(page->status == 200);
+  CHECK(web.running());
+  web.signal(SIGTERM);
+  const auto rc = web.wait(10s);
+  REQUIRE(rc.has_value());
+  CHECK(*rc == 0);  // 159 would be SIGSYS: a system call the unit forbids
 }

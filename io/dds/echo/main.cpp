@@ -4,11 +4,11 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "io/dds/cli/options.hpp"
 #include "io/dds/echo/format.hpp"
 #include "io/dds/echo/options.hpp"
 #include "io/dds/participant.hpp"
@@ -100,13 +100,7 @@ int main(int argc, char** argv) {
     return kExitOk;
   }
   install_signal_handlers();
-  if (options.dds.security) {  // Cyclone reads file: paths as given; make them independent of it
-    auto& s = *options.dds.security;
-    for (std::string* path : {&s.identity_ca, &s.identity_certificate, &s.private_key,
-                              &s.permissions_ca, &s.governance, &s.permissions})
-      if (!path->starts_with('/') && !path->starts_with("${"))
-        *path = std::filesystem::absolute(*path).string();
-  }
+  hvac_twin::dds::cli::make_security_paths_absolute(options.dds);
   try {
     return run(options);
   } catch (const std::exception& e) {

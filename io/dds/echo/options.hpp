@@ -1,12 +1,13 @@
-// Command-line options of hvac-twin-echo. Parsing is pure (no I/O) so it can be unit-tested.
+// Command-line options of hvac-twin-echo: the shared DDS options (io/dds/cli/options.hpp) and its
+// own. Parsing is pure (no I/O) so it can be unit-tested.
 #pragma once
 
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
 
 #include "config/config.hpp"
+#include "io/dds/cli/options.hpp"
 #include "io/dds/subscriber.hpp"
 
 namespace hvac_twin::dds::echo {
@@ -22,10 +23,8 @@ struct Options {
   bool help = false;                   // --help
 };
 
-// A command-line mistake; what() is a one-line message for stderr.
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+// A command-line mistake; what() is a one-line message for stderr (the shared DDS options' type).
+using UsageError = cli::UsageError;
 
 // Parses argv[1..argc-1]. Throws UsageError. Allocates; start-up only.
 Options parse_options(int argc, const char* const* argv);

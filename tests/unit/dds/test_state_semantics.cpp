@@ -16,6 +16,7 @@ namespace {
 constexpr int kDomainLateJoiner = 105;
 constexpr int kDomainLiveliness = 108;
 constexpr int kDomainAssert = 114;
+constexpr int kDomainInstanceLost = 201;  // hvac-twin-web's range (200..209)
 
 constexpr std::chrono::nanoseconds state_lease(std::chrono::nanoseconds period) {
   return 3 * period;  // io/dds/qos.hpp state_liveliness_lease, checked in test_qos.cpp
@@ -120,4 +121,42 @@ TEST_CASE("assert_liveliness keeps a writer alive between writes", "[dds][state]
   CHECK(min_alive == 1);
   // The deadline is about updates, not liveliness: the unchanged instance missed it.
   CHECK(subscriber.status(Topic::kVirtualSensor).deadline_missed >= 1);
+}
+
+TEST_CASE("a reader learns which instances lost their writer's liveliness", "[dds][state]") {
+  // hvac-twin-web marks a unit stale from these, per unit, even while other publishers live.
+  const auto config = test::loopback_config(kDomainInstanceLost);
+  constexpr auto kPeriod = 100ms;  // lease 300 ms
+  Participant participant(config);
+  UnitPublisher hp1(participant, config.topic_prefix, "site", "hp1", kPeriod);
+  UnitPublisher hp2(participant, config.topic_prefix, "site", "hp2", kPeriod);
+  Subscriber subscriber(participant, config.topic_prefix,
+                        {false, false, true, false, false, false});
+
+  HealthSample h;
+  h.cycle = 1;
+  h.timestamp_ns = test::now_ns();
+  REQUIRE(hp1.publish(h) == PublishStatus::kOk);
+  REQUIRE(hp2.publish(h) == PublishStatus::kOk);
+  std::vector<Record> records;
+  std::vector<InstanceLost> lost;
+  REQUIRE(test::collect(subscriber, records, 2));
+
+  // hp1 stops; hp2 keeps writing every period. Only hp1's instance is reported lost.
+  const auto end = std::chrono::steady_clock::now() + test::kTimeout;
+  while (lost.empty() && std::chrono::steady_clock::now() < end) {
+    ++h.cycle;
+    h.timestamp_ns = test::now_ns();
+    REQUIRE(hp2.publish(h) == PublishStatus::kOk);
+    REQUIRE(subscriber.wait_and_take(kPeriod, records, &lost) >= 0);
+  }
+  REQUIRE(lost.size() == 1);
+  CHECK(lost[0].topic == Topic::kEstimatorHealth);
+  CHECK(lost[0].site == "site");
+  CHECK(lost[0].unit == "hp1");
+  // (Cyclone reports it disposed: a writer that auto-disposes its instances, the default and the
+  // daemon's, disposes them when its liveliness lapses too.)
+  // Without the out-parameter the notifications are taken and dropped, as before.
+  std::vector<Record> more;
+  CHECK(subscriber.take(more) >= 0);
 }
