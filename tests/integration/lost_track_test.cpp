@@ -56,8 +56,8 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
 
   const Truth truth(stack.path("truth-1.csv"));
   int lost = 0, lost_good = 0, after = 0, after_good = 0, reset = 0;
-  // The last error and sigma after the recovery of each output judged.
-  std::map<std::string, std::pair<double, double>> last;
+  // Per output judged after the recovery: the number of samples and the sum of (error/sigma)^2.
+  std::map<std::string, std::pair<int, double>> after_z;
   for (const auto& s : stack.samples()) {
     if (s["topic"] != "virtual_sensor") continue;
     const std::string name = s["name"];
@@ -78,7 +78,11 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
         ++after;
         if (s["quality"] == "GOOD" && !flagged) ++after_good;
       }
-      last[name] = {s["value"].get<double>() - truth.at(t, "output:" + name), s["sigma"]};
+      const double z = (s["value"].get<double>() - truth.at(t, "output:" + name)) /
+                       s["sigma"].get<double>();
+      auto& [n, sum_z2] = after_z[name];
+      ++n;
+      sum_z2 += z * z;
     }
   }
   INFO("lost_track samples " << lost << " (GOOD " << lost_good << "); after recovery " << after
@@ -93,12 +97,16 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
   REQUIRE(after >= 10);
   CHECK(after_good >= after * 9 / 10);
   // Back at the truth within the published uncertainty (which carries the 4-cell model's
-  // structural error). Seen: the discharge pressure 1.2 sigma off, the charge 0.4 sigma; without
-  // the fault 0.8-1.1 and 0.4.
-  REQUIRE(last.size() == 2);
-  for (const auto& [name, e] : last) {
-    INFO(name << ": last error " << e.first << ", sigma " << e.second);
-    CHECK(std::abs(e.first) < 3.0 * e.second);
+  // structural error), judged as the RMS of error/sigma over the three minutes after the
+  // recovery, not on one sample: the discharge pressure's error/sigma swings by up to 2.6 from one
+  // sample to the next (seen from -2.6 to 1.9 in one run), so a single sample judged against
+  // 3 sigma failed once in CI (3.9 sigma) with the estimate recovered. Seen: RMS 0.9-1.2 for the
+  // discharge pressure; before the recovery was built it stayed 58 sigma off.
+  REQUIRE(after_z.size() == 2);
+  for (const auto& [name, z] : after_z) {
+    const double rms = std::sqrt(z.second / z.first);
+    INFO(name << ": RMS of error/sigma " << rms << " over " << z.first << " samples");
+    CHECK(rms < 2.0);
   }
 }
 
