@@ -32,6 +32,15 @@ namespace {
 
 constexpr int kSetupFailed = 125;
 
+// SCMP_A0 without its compound literal (a C99 feature that clang flags in C++).
+scmp_arg_cmp first_argument(scmp_compare op, int value) {
+  scmp_arg_cmp cmp{};
+  cmp.arg = 0;
+  cmp.op = op;
+  cmp.datum_a = static_cast<scmp_datum_t>(value);
+  return cmp;
+}
+
 struct Family {
   const char* name;
   int value;
@@ -130,12 +139,11 @@ int main(int argc, char** argv) {
       const bool allowed = families.count(af) != 0;
       if (allowed && !allow_list) continue;
       const uint32_t action = allowed ? SCMP_ACT_ALLOW : SCMP_ACT_ERRNO(EAFNOSUPPORT);
-      const int rc = seccomp_rule_add(ctx, action, socket_nr, 1,
-                                      SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(af)));
+      const int rc = seccomp_rule_add(ctx, action, socket_nr, 1, first_argument(SCMP_CMP_EQ, af));
       if (rc != 0) return fail(std::string("seccomp_rule_add(socket): ") + std::strerror(-rc));
     }
     const int rc = seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), socket_nr, 1,
-                                    SCMP_A0(SCMP_CMP_GE, static_cast<scmp_datum_t>(AF_MAX)));
+                                    first_argument(SCMP_CMP_GE, AF_MAX));
     if (rc != 0) return fail(std::string("seccomp_rule_add(socket): ") + std::strerror(-rc));
   }
   const int rc = seccomp_load(ctx);

@@ -106,7 +106,8 @@ TEST_CASE("a unit's estimates of one cycle round-trip in one sample, and it is g
   CHECK(publisher.publish(sample) == PublishStatus::kInvalidValue);
   sample.estimates = entries;
   CHECK(with(23, [](EstimateEntry& e) { e.value = std::nan(""); }) == PublishStatus::kNonFinite);
-  CHECK(with(5, [](EstimateEntry& e) { e.sigma = INFINITY; }) == PublishStatus::kNonFinite);
+  CHECK(with(5, [](EstimateEntry& e) { e.sigma = std::numeric_limits<double>::infinity(); }) ==
+        PublishStatus::kNonFinite);
   CHECK(with(5, [](EstimateEntry& e) { e.sigma = -1e-9; }) == PublishStatus::kInvalidValue);
   CHECK(with(7, [](EstimateEntry& e) { e.name = ""; }) == PublishStatus::kInvalidName);
   const std::string too_long(kMaxEngUnitLength + 1, 'u');

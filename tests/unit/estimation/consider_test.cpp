@@ -84,8 +84,8 @@ TEST_CASE("an EnKF predict inflates the estimated states' spread, not a consider
     REQUIRE(enkf.predict({}, 1.0) == est::StepStatus::kOk);
   // No process noise: the estimated state's spread grows by the inflation, 1.1^20 = 6.7; the
   // consider state's stays where it was (it grew the same way before the fix).
-  const auto spread = [](const Eigen::MatrixXd& X, Eigen::Index r) {
-    return std::sqrt((X.row(r).array() - X.row(r).mean()).square().mean());
+  const auto spread = [](const Eigen::MatrixXd& X, Eigen::Index row) {
+    return std::sqrt((X.row(row).array() - X.row(row).mean()).square().mean());
   };
   CHECK(spread(enkf.members(), 0) == Approx(std::pow(1.1, 20) * spread(before, 0)).epsilon(1e-9));
   CHECK(spread(enkf.members(), 1) == Approx(spread(before, 1)).epsilon(1e-9));
