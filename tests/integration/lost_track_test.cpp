@@ -78,8 +78,8 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
         ++after;
         if (s["quality"] == "GOOD" && !flagged) ++after_good;
       }
-      const double z = (s["value"].get<double>() - truth.at(t, "output:" + name)) /
-                       s["sigma"].get<double>();
+      const double z =
+          (s["value"].get<double>() - truth.at(t, "output:" + name)) / s["sigma"].get<double>();
       auto& [n, sum_z2] = after_z[name];
       ++n;
       sum_z2 += z * z;
