@@ -108,7 +108,10 @@ class Ekf final : public Estimator {
                     std::span<MeasurementReport> reports) override;
 
   // Every model output at the current estimate with its standard deviation from the delta
-  // method, σ² = H P Hᵀ.
+  // method, σ² = H P Hᵀ. H is the update's (at x⁻) when no state has moved further from x⁻ than
+  // the integrator's jacobian_reuse_sigma (in units of its initial_std, the distance at which
+  // the integrator reuses a model Jacobian) and the inputs are the update's; else it is
+  // evaluated at the estimate. The outputs themselves are always evaluated at the estimate.
   int filter_output_estimates(std::span<const double> u, std::span<double> y,
                               std::span<double> sigma) override;
 
@@ -119,6 +122,10 @@ class Ekf final : public Estimator {
   // Updates whose posterior the model could not evaluate, stepped back toward the prior
   // (keep_evaluable()). Not in a checkpoint.
   [[nodiscard]] std::uint64_t posterior_step_backs() const { return step_backs_; }
+  // Output estimates that reused the update's output Jacobian, and all of them. Not in a
+  // checkpoint.
+  [[nodiscard]] std::uint64_t output_jacobian_reuses() const { return h_reuses_; }
+  [[nodiscard]] std::uint64_t output_estimate_calls() const { return h_calls_; }
   [[nodiscard]] const plant::Integrator& integrator() const { return integrator_; }
   [[nodiscard]] std::size_t num_states() const override { return n_; }
   // Constraint rows active after the last update (constrained mode), and their names.
@@ -169,6 +176,14 @@ class Ekf final : public Estimator {
   Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
   std::uint64_t step_backs_ = 0;
   Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
+  // Where H_ was evaluated by update(), for filter_output_estimates(): the state, the inputs,
+  // whether it still holds (predict(), reset() and restore() end it); the distance's unit per
+  // state (its initial_std).
+  Eigen::VectorXd h_x_, h_scale_;
+  std::vector<double> h_u_;
+  bool h_valid_ = false;
+  std::uint64_t h_reuses_ = 0, h_calls_ = 0;
+  [[nodiscard]] bool update_jacobian_holds(std::span<const double> u) const;
   Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;
   Eigen::MatrixXd b_;

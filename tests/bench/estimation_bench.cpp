@@ -225,6 +225,10 @@ void report(bench::TruthKind truth, const std::vector<FilterRun>& runs) {
         "integration %.0f %%, Jacobians %.0f %%, update %.0f %%\n",
         r.name.c_str(), step, percentile(r.step_ms, 0.99), step / std::max(sim, 1e-9), sim,
         100 * (sp - sj) / total, 100 * sj / total, 100 * su / total);
+    if (const auto* ekf = dynamic_cast<const est::Ekf*>(r.filter.get()))
+      std::printf("%-17s published sigma on the update's output Jacobian in %llu of %llu periods\n",
+                  "", static_cast<unsigned long long>(ekf->output_jacobian_reuses()),
+                  static_cast<unsigned long long>(ekf->output_estimate_calls()));
   }
 }
 
