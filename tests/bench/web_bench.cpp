@@ -46,6 +46,7 @@
 #include "tests/bench/bench_stats.hpp"
 #include "tests/integration/process.hpp"
 #include "tests/support/scratch_dir.hpp"
+#include "tests/unit/web/web_test_support.hpp"
 
 namespace {
 
@@ -178,16 +179,10 @@ void cycle_records(const std::string& unit, std::uint64_t cycle, std::int64_t t,
   e.site = std::string("site");
   e.unit = unit;
   for (std::size_t i = 0; i < sensor_names().size(); ++i) {
-    dds::VirtualSensorRecord v;
-    v.site = std::string("site");
-    v.unit = unit;
-    v.name = sensor_names()[i];
-    v.value = 1000.0 * (1.0 + static_cast<double>(i)) *
-              (1.0 + 0.1 * std::sin(phase + static_cast<double>(i)));
-    v.sigma = 0.02 * v.value;
+    const double value = 1000.0 * (1.0 + static_cast<double>(i)) *
+                         (1.0 + 0.1 * std::sin(phase + static_cast<double>(i)));
+    dds::VirtualSensorRecord v = web::test::sensor(unit, sensor_names()[i], value, 0.02 * value, t);
     v.eng_unit = std::string("W");
-    v.quality = dds::EstimateQuality::kGood;
-    v.timestamp_ns = t;
     v.cycle = cycle;
     e.estimates.push_back({v.name, v.value, v.sigma, v.eng_unit});
     out.emplace_back(std::move(v));
@@ -197,18 +192,12 @@ void cycle_records(const std::string& unit, std::uint64_t cycle, std::int64_t t,
   e.cycle = cycle;
   out.emplace_back(std::move(e));
   for (const auto& p : point_names()) {
-    dds::ObservationRecord o;
-    o.site = std::string("site");
-    o.unit = unit;
-    o.point = p;
+    dds::ObservationRecord o = web::test::observation(unit, p, t);
     o.value = 20.0 + std::sin(phase);
     o.predicted = o.value - 0.1;
     o.innovation = 0.1 * std::cos(phase * 7.0);
     o.innovation_variance = 0.04;
     o.test_ratio = o.innovation * o.innovation / 0.04;
-    o.fused = true;
-    o.quality = dds::PointQuality::kGood;
-    o.timestamp_ns = t;
     o.cycle = cycle;
     out.emplace_back(std::move(o));
     dds::ConsistencyRecord c;
@@ -219,24 +208,11 @@ void cycle_records(const std::string& unit, std::uint64_t cycle, std::int64_t t,
     c.timestamp_ns = t;
     out.emplace_back(std::move(c));
   }
-  dds::HealthRecord h;
-  h.site = std::string("site");
-  h.unit = unit;
-  h.cycle = cycle;
+  dds::HealthRecord h = web::test::health(unit, cycle, t);
   h.cycle_time_ms = 40.0;
-  h.quality = dds::EstimateQuality::kGood;
-  h.modbus_connected = true;
-  h.timestamp_ns = t;
   out.emplace_back(std::move(h));
-  dds::LeakDiagnosticRecord l;
-  l.site = std::string("site");
-  l.unit = unit;
+  dds::LeakDiagnosticRecord l = web::test::leak(unit, dds::LeakState::kNormal, t);
   l.charge = 0.5 - 1e-6 * static_cast<double>(cycle);
-  l.charge_sigma = 0.02;
-  l.nameplate_charge = 0.5;
-  l.threshold = 6.9;
-  l.quality = dds::EstimateQuality::kGood;
-  l.timestamp_ns = t;
   l.cycle = cycle;
   out.emplace_back(std::move(l));
 }
