@@ -132,8 +132,9 @@ struct FilterRun {
   bool started = false;
   std::unique_ptr<est::StatePhases> phases;
   std::vector<double> step_ms, predict_ms, update_ms, jac_ms, sim_ms;
-  // The published estimates after each step (output_estimates), and one output Jacobian at the
-  // same estimate (what the publication costs when it cannot reuse the update's), when scored.
+  // The published estimates after every step but the first (output_estimates), and, on scored
+  // steps, one output Jacobian at the same estimate (what the publication costs when it cannot
+  // reuse the update's).
   std::vector<double> publish_ms, output_jacobian_ms;
   std::vector<Quantity> outputs;  // by checked_outputs()
   std::vector<Sensor> sensors;    // by kMeasured
