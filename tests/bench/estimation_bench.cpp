@@ -2,15 +2,17 @@
 //
 //   estimation_bench [--short] [--hours H] [--period S] [--truth nominal|mismatched|bias|all]
 //                    [--filters ekf,cekf,enkf] [--members N] [--threads T]
-//                    [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1]
+//                    [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--std STATE=V]
+//                    [--consider STATE=0|1]
 //                    [--noise-factor F] [--repr OUTPUT=SIGMA]
 //                    [--commission H] [--calibrate] [--sample-truth SEED] [--csv FILE] [--svg FILE]
-// --set, --q, --consider change the filters' model parameters, random walks and consider flags
-// from the design the daemon runs; --noise-factor sets the factor on the sensor noise the filters
-// are told (default 1) and --repr a point's representativeness error in quadrature (default
-// 0.25 K on the four wall sensors; heat_pump_scenario.hpp says why); --commission H: the
-// filters know the charge for the first H hours (default 0: never); --calibrate: the filters
-// start from a batch calibration on a commissioning of each truth (calibrated_start.hpp);
+// --set, --q, --std, --consider change the filters' model parameters, random walks, initial
+// sigmas and consider flags from the design the daemon runs; --noise-factor sets the factor on the
+// sensor noise the filters are told (default 1) and --repr a point's representativeness error in
+// quadrature (default 0.25 K on the four wall sensors; heat_pump_scenario.hpp says why);
+// --commission H: the filters know the charge for the first H hours (default 0: never);
+// --calibrate: the filters start from a batch calibration on a commissioning of each truth
+// (calibrated_start.hpp);
 // --sample-truth SEED: the truth's unit parameters drawn from the filters' priors (sample_truth()),
 // for a Monte-Carlo NEES over seeds.
 //
@@ -123,7 +125,8 @@ bool parse(int argc, char** argv, Args& a) {
                     bench::TruthKind::kSensorBias};
       else
         return false;
-    } else if (s == "--set" || s == "--q" || s == "--consider" || s == "--truth-set") {
+    } else if (s == "--set" || s == "--q" || s == "--std" || s == "--consider" ||
+               s == "--truth-set") {
       const std::string kv = next();
       const auto eq = kv.find('=');
       if (eq == std::string::npos) return false;
@@ -132,6 +135,7 @@ bool parse(int argc, char** argv, Args& a) {
       if (s == "--set") bench::filter_parameters()[key] = value;
       if (s == "--truth-set") bench::truth_overrides()[key] = value;
       if (s == "--q") bench::process_noise_overrides()[key] = value;
+      if (s == "--std") bench::initial_std_overrides()[key] = value;
       if (s == "--consider") bench::consider_overrides()[key] = value != 0.0;
     } else if (s == "--repr") {
       const std::string kv = next();
@@ -170,6 +174,12 @@ bool parse(int argc, char** argv, Args& a) {
     } else {
       return false;
     }
+  }
+  // A sampled unit replaces the nominal truth's parameters; on the mismatched truth the draws
+  // would multiply its own offsets, a unit from neither prior.
+  if (a.seed != 0 && a.truths != std::vector<bench::TruthKind>{bench::TruthKind::kNominal}) {
+    std::fprintf(stderr, "estimation_bench: --sample-truth takes the nominal truth alone\n");
+    return false;
   }
   return a.hours > 0.0 && a.period > 0.0;
 }
@@ -237,6 +247,11 @@ void report(bench::TruthKind truth, const std::vector<FilterRun>& runs) {
     std::printf("\n  NIS %.2f [%.2f, %.2f] %s; NEES %.1f [%.1f, %.1f] %s; gate <= 5 %% %s\n",
                 r.nis(), nis_lo, nis_hi, verdict(nis_ok), r.nees(), nees_lo, nees_hi,
                 verdict(nees_ok), verdict(gated_ok));
+    std::printf("  NEES per quantity (time-averaged e^2/sigma^2 on its own, expected 1):");
+    for (std::size_t k = 0; k < bench::nees_outputs().size(); ++k)
+      std::printf(" %s %.2f", r.model->layout().outputs[bench::nees_outputs()[k]].name.c_str(),
+                  r.nees_term(k));
+    std::printf("\n");
   }
   std::printf("\nStep time\n");
   for (const auto& r : runs) {
@@ -324,7 +339,8 @@ int main(int argc, char** argv) {
         stderr,
         "usage: estimation_bench [--short] [--hours H] [--period S] "
         "[--truth nominal|mismatched|bias|all] [--filters ekf,cekf,enkf] [--members N] "
-        "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--consider STATE=0|1] "
+        "[--threads T] [--set PARAM=V] [--truth-set PARAM=V] [--q STATE=V] [--std STATE=V] "
+        "[--consider STATE=0|1] "
         "[--noise-factor F] [--adaptive-noise MIN:MAX] [--repr OUTPUT=SIGMA] [--commission H] "
         "[--calibrate] [--sample-truth SEED] "
         "[--csv FILE] [--svg FILE]\n");

@@ -139,6 +139,9 @@ struct FilterRun {
   std::vector<Quantity> outputs;  // by checked_outputs()
   std::vector<Sensor> sensors;    // by kMeasured
   double nis_sum = 0.0, nees_sum = 0.0;
+  // Per NEES quantity (nees_outputs()): the sum of e^2 / sigma^2 on its own, where the NEES's
+  // excess or shortfall sits (the terms do not add up to the NEES: it weighs their correlations).
+  std::vector<double> nees_terms;
   long nis_count = 0, nees_count = 0, failures = 0;
   std::vector<std::vector<double>>
       trace;                        // per scored period: estimate, sigma of each checked output
@@ -235,7 +238,7 @@ struct FilterRun {
     sigma.assign(model->num_outputs(), 0.0);
     const auto tp0 = Clock::now();
     if (filter->output_estimates(u, y, sigma) != plant::kModelOk) ++failures;
-    if (started && !step_ms.empty()) publish_ms.push_back(ms_since(tp0));
+    if (!step_ms.empty()) publish_ms.push_back(ms_since(tp0));
     if (!scoring) return;
     const std::vector<double>& yt = truth.y();
     for (std::size_t k = 0; k < checked_outputs().size(); ++k) {
@@ -286,6 +289,9 @@ struct FilterRun {
     if (ldlt.info() == Eigen::Success) {
       nees_sum += e.dot(ldlt.solve(e));
       ++nees_count;
+      nees_terms.resize(static_cast<std::size_t>(d), 0.0);
+      for (Eigen::Index i = 0; i < d; ++i)
+        nees_terms[static_cast<std::size_t>(i)] += e(i) * e(i) / Ps(i, i);
     }
   }
 
@@ -340,6 +346,10 @@ struct FilterRun {
   }
   [[nodiscard]] double nees() const {
     return nees_count ? nees_sum / static_cast<double>(nees_count) : 0.0;
+  }
+  [[nodiscard]] double nees_term(std::size_t k) const {
+    return nees_count && k < nees_terms.size() ? nees_terms[k] / static_cast<double>(nees_count)
+                                               : 0.0;
   }
   [[nodiscard]] const Quantity& output(std::size_t model_output) const {
     for (std::size_t k = 0; k < checked_outputs().size(); ++k)
