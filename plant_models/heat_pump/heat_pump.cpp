@@ -302,8 +302,17 @@ ModelLayout HeatPumpR32::make_layout() const {
   set(L_.t_mass, "T_mass", "degC", -40.0, 70.0, 3.0, 5e-4, 1e-6, false,
       "building-mass temperature");
   l.states[L_.t_air].held_while_settling = l.states[L_.t_mass].held_while_settling = true;
+  // The zone's gains: the zone air tells the filter their sum with the building mass's heat, and
+  // the two come apart only over many hours, so the gains' sigma is what it publishes for most
+  // of a day, and it must be as wide as what it does not know. The prior: 300 +- 500 W, the
+  // gains of a zone one split unit serves (40-70 m2 at 0-20 W/m2 of people, lighting and
+  // equipment). The random walk, 2 W/sqrt(s): occupancy switching by a few hundred watts a few
+  // times a day. estimation_bench, nominal truth, a day (gains drawn from 200-1200 W every 3 h):
+  // the gains' e^2/sigma^2 averaged 2.40 with 1 W/sqrt(s), 0.83 with 2, 0.30 with 4; over units
+  // drawn from the priors (--sample-truth 1..8, 3 h each) the NEES averaged 6.4 with the prior
+  // 300 +- 300 W (a unit's gains of 1104 W gave 9.9), 4.1 with +- 500.
   if (L_.q_int != hp::kNone)
-    set(L_.q_int, "Q_int", "W", -2000.0, 20000.0, 300.0, 1.0, 1e-3, true,
+    set(L_.q_int, "Q_int", "W", -2000.0, 20000.0, 500.0, 2.0, 1e-3, true,
         "internal heat gains (random walk)");
   // The leak rate is the charge's trend over about two days (random walk 1e-3 g/h/sqrt(s)),
   // signed: at a lower bound of 0 the PDF truncation collapsed its sigma to ~0.02 g/h and held
