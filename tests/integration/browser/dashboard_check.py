@@ -59,6 +59,14 @@ def tile(driver, unit):
     return driver.find_element(By.CSS_SELECTOR, f'li.tile[data-unit="{unit}"]')
 
 
+def shown_cycle(driver, unit):
+    """The tile's cycle and its shown last cycle, read again if the tile is re-rendered between
+    finding an element and reading it (a stale element reference failed CI once)."""
+    return wait_for(driver, lambda d: (int(tile(d, unit).get_attribute("data-cycle") or 0),
+                                       tile(d, unit).find_element(By.CSS_SELECTOR,
+                                                                  ".last-cycle").text), 5) or (0, "")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--url", required=True)
@@ -102,11 +110,9 @@ def main():
               window.__from_stamp.push(Date.now() - Number(li.dataset.stampMs));
             } }).observe(document.getElementById('tiles'),
                          {subtree: true, attributes: true, attributeFilter: ['data-cycle']});""")
-        c1 = int(tile(driver, a.unit).get_attribute("data-cycle") or 0)
-        text1 = tile(driver, a.unit).find_element(By.CSS_SELECTOR, ".last-cycle").text
+        c1, text1 = shown_cycle(driver, a.unit)
         time.sleep(5)
-        c2 = int(tile(driver, a.unit).get_attribute("data-cycle") or 0)
-        text2 = tile(driver, a.unit).find_element(By.CSS_SELECTOR, ".last-cycle").text
+        c2, text2 = shown_cycle(driver, a.unit)
         check(c2 > c1, f"the cycle advanced on the page ({c1} -> {c2})")
         check(text1 != text2, "the shown last cycle changed")
         lat = sorted(driver.execute_script("return window.__lat"))
