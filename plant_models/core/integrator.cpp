@@ -272,9 +272,9 @@ int Integrator::exponential_steps(double dt, std::span<double> F) {
     return true;
   };
   if (!jacobian_at(tr.J_start)) return report("no model Jacobian at the initial state", 0.0);
-  tr.F.setIdentity();
   tr.y_start = Eigen::Map<const Eigen::VectorXd>(y.data(), n);
   double t_start = 0.0, t = 0.0;
+  bool first = true;  // F is the identity until the first segment ends: F = E, no product
   for (long steps = 1;; ++steps) {
     if (steps > options_.max_steps) {
       report("too many steps", t);
@@ -289,8 +289,13 @@ int Integrator::exponential_steps(double dt, std::span<double> F) {
     tr.J_mid = 0.5 * (t - t_start) * (tr.J_start + tr.T);
     tr.J_start = tr.T;
     if (!tr.expm.compute(tr.J_mid, tr.E)) return report("no matrix exponential", t);
-    tr.T.noalias() = tr.E * tr.F;
-    tr.F = tr.T;
+    if (first) {
+      tr.F = tr.E;
+    } else {
+      tr.T.noalias() = tr.E * tr.F;
+      tr.F = tr.T;
+    }
+    first = false;
     ++tr.segments;
     if (end) break;
     tr.y_start = Eigen::Map<const Eigen::VectorXd>(y.data(), n);
