@@ -139,6 +139,7 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   P_good_ = P_;
   P_initial_ = P_;
   lost_updates_ = 0;
+  recovery_left_ = 0;
   streaks_.clear();
   h_valid_ = false;
 }
@@ -160,6 +161,7 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   P_good_ = P_;
   counters_ = counters;
   lost_updates_ = 0;
+  recovery_left_ = 0;
   streaks_.clear();
   active_count_ = 0;
   h_valid_ = false;
@@ -209,7 +211,11 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   const std::size_t rejected = gate(z, reports, count, available);
   lost_updates_ = available >= 2 && 2 * rejected > available ? lost_updates_ + 1 : 0;
   const bool lost = lost_updates_ >= options_.max_consecutive_rejections;
-  if (available == 1 && rejected == 1) arm_lone_point(reports, count);
+  // Arming a faulty point for a test against the initial covariance: the only available one, or,
+  // in the updates after a reset for lost track, any point rejected while most others pass.
+  const bool recovering = recovery_left_ > 0 && 2 * rejected <= available;
+  if (recovery_left_ > 0) --recovery_left_;
+  if ((available == 1 && rejected == 1) || recovering) arm_faulty(reports, count);
   const bool readmit = readmission_due(z, reports, count);
   const bool reset = readmit || lost;
   if (reset) {
@@ -220,6 +226,7 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     // instead, so that a transmitter that went wrong does not get in through the wide
     // covariance.
     lost_updates_ = 0;
+    if (lost) recovery_left_ = kRecoveryUpdates * options_.max_consecutive_rejections;
     ++counters_.covariance_resets;
     counters_.gate_rejections -= rejected;
     for (std::size_t i = 0; i < count; ++i) {
@@ -304,7 +311,7 @@ std::size_t Ekf::gate(std::span<const Measurement> z, std::span<MeasurementRepor
   return rejected;
 }
 
-void Ekf::arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count) {
+void Ekf::arm_faulty(std::span<const MeasurementReport> reports, std::size_t count) {
   // A reading that has not changed once in the streak is rather a frozen transmitter than a lost
   // filter: the stuck check's to judge (StuckMonitor), from the model's drift meanwhile, which a
   // reset fusing the frozen value would stop; arm_now() leaves it alone. Due now; readmission_due()

@@ -30,7 +30,13 @@
 // test backs off, its interval doubling, while the point stays wrong. A point
 // rejected alone while others are fused is not re-admitted so: from one point a drift and a
 // structural mismatch of the model look the same, and a reset every few updates for a biased
-// sensor would throw away what the filter knows of the slow states. A point that is the only
+// sensor would throw away what the filter knows of the slow states. Except just after a reset for
+// lost track (within kRecoveryUpdates x max_consecutive_rejections updates of it): the readings
+// fused in the episode may have left a state that only this point sees confidently wrong, and
+// the filter's knowledge is suspect anyway; such a point, rejected max_consecutive_rejections
+// times in a row while most others pass, is armed at once (lost_track_test: after absurd readings
+// on six of seven points the condenser-outlet wall, right again, was otherwise gated out for good
+// and the discharge pressure stayed 3 sigma off; recovery_test). A point that is the only
 // available one is: rejected max_consecutive_rejections times in a row, it is tested against
 // the initial covariance at once and then with the same back-off, unless its reading has not
 // changed once in the streak (a frozen transmitter, for the stuck check). Alone, there is no other
@@ -143,9 +149,10 @@ class Ekf final : public Estimator {
   std::size_t gate(std::span<const Measurement> z, std::span<MeasurementReport> reports,
                    std::size_t count, std::size_t& available);
   void fuse(std::size_t output, double innovation_at_prior, double variance);
-  // The only available point has been rejected max_consecutive_rejections times in a row: the
-  // filter is running on its model alone. Arms the point for readmission_due(), due now.
-  void arm_lone_point(std::span<const MeasurementReport> reports, std::size_t count);
+  // Arms every faulty rejected point (whose reading moved) for readmission_due(), due now: when
+  // it is the only available point (the filter is running on its model alone), or in the
+  // recovery window after a reset for lost track while most others pass.
+  void arm_faulty(std::span<const MeasurementReport> reports, std::size_t count);
   // Whether an armed point whose test is due (streaks_) passes the gate against the
   // initial covariance (a covariance reset is due); advances the back-off of every point tested.
   bool readmission_due(std::span<const Measurement> z, std::span<const MeasurementReport> reports,
@@ -195,7 +202,11 @@ class Ekf final : public Estimator {
   // with a reading that moved: tested against the initial covariance 2 x
   // max_consecutive_rejections rejections later, the interval doubling after each test.
   RejectionStreaks streaks_;
-  int lost_updates_ = 0;       // consecutive updates with most points gated out
+  int lost_updates_ = 0;  // consecutive updates with most points gated out
+  // Updates left, in max_consecutive_rejections, after a reset for lost track in which a point
+  // rejected while most others pass is armed at once (see ekf.hpp, "Re-admission").
+  static constexpr int kRecoveryUpdates = 4;
+  int recovery_left_ = 0;
   std::vector<int> held_;      // per slot, after a reset: its rejections in a row before, or -1
   std::vector<double> x_buf_;  // contiguous scratch for the integrator
 

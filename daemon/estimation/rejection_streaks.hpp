@@ -70,8 +70,9 @@ class RejectionStreaks {
   // Let in by a reset: stays armed, tested again `interval` rejections after it falls out.
   void keep_armed(std::size_t i) noexcept { at_[i] = interval_[i]; }
 
-  // A faulty lone point whose reading moved during its streak: armed (if it is not yet), its
-  // test due now; take_due() then sets the next one 2 x max_consecutive later.
+  // A faulty point whose reading moved during its streak (the only available one, or one just
+  // after a reset for lost track): armed (if it is not yet), its test due now; take_due() then sets
+  // the next one 2 x max_consecutive later.
   void arm_now(std::size_t i, int max_consecutive) noexcept {
     if (at_[i] != 0 || varied_[i] == 0) return;
     interval_[i] = std::max(interval_[i], max_consecutive);
