@@ -45,6 +45,8 @@ Ekf::Ekf(const plant::ContinuousModel& model, std::span<const double> process_no
   y_ = Eigen::VectorXd::Zero(m);
   h_x_ = h_scale_ = Eigen::VectorXd::Zero(n);
   h_u_.assign(model.num_inputs(), 0.0);
+  for (const auto& in : model.layout().inputs)
+    h_u_scale_.push_back(std::abs(in.reuse_scale));
   ph_ = k_ = bh_ = Eigen::VectorXd::Zero(n);
   max_var_ = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::infinity());
   const auto& states = model.layout().states;
@@ -142,6 +144,7 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   recovery_left_ = 0;
   streaks_.clear();
   h_valid_ = false;
+  integrator_.forget_jacobian();
 }
 
 bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major,
@@ -165,12 +168,12 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   streaks_.clear();
   active_count_ = 0;
   h_valid_ = false;
+  integrator_.forget_jacobian();
   return true;
 }
 
 StepStatus Ekf::predict(std::span<const double> u, double dt) {
   ++counters_.predicts;
-  h_valid_ = false;
   std::copy(x_.data(), x_.data() + n_, x_buf_.begin());
   const plant::IntegrationResult r = integrator_.step(x_buf_, u, dt, span_of(F_));
   if (!r.ok()) {
@@ -196,15 +199,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   const std::size_t count = std::min({z.size(), reports.size(), streaks_.size()});
   for (std::size_t i = 0; i < count; ++i)
     reports[i] = MeasurementReport{};
-  h_valid_ = false;
-  if (model_.output_jacobian(span_of(x_), u, span_of(y_), span_of(H_)) != plant::kModelOk)
-    return StepStatus::kModelError;
+  if (outputs_with_jacobian(u, span_of(y_)) != plant::kModelOk) return StepStatus::kModelError;
   x_prior_ = x_;
-  if (u.size() == h_u_.size()) {
-    h_x_ = x_;
-    std::copy(u.begin(), u.end(), h_u_.begin());
-    h_valid_ = true;
-  }
 
   // Test every measurement against the prior, as the published innovations are.
   std::size_t available = 0;
@@ -234,6 +230,9 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
       held_[i] = reports[i].faulty && !readmit ? streaks_.count(i) : -1;
     }
     P_ = P_initial_;
+    // Nothing linearised before is trusted after a reset: the next cycle evaluates afresh.
+    h_valid_ = false;
+    integrator_.forget_jacobian();
     gate(z, reports, count, available);
   }
   P_prior_ = P_;
@@ -397,27 +396,35 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
       P_(row, c) = b_(row, c) - bh_(row) * k_(c) + r * k_(row) * k_(c);
 }
 
-bool Ekf::update_jacobian_holds(std::span<const double> u) const {
+bool Ekf::output_jacobian_holds(std::span<const double> u) const {
   const double d = options_.integrator.jacobian_reuse_sigma;
-  if (!h_valid_ || !(d > 0.0) || !std::equal(u.begin(), u.end(), h_u_.begin(), h_u_.end()))
-    return false;
+  if (!h_valid_ || !(d > 0.0) || u.size() != h_u_.size()) return false;
+  for (std::size_t i = 0; i < u.size(); ++i)
+    if (!(std::abs(u[i] - h_u_[i]) <= d * h_u_scale_[i])) return false;  // NaN: not near
   for (Eigen::Index i = 0; i < x_.size(); ++i)
-    if (!(std::abs(x_(i) - h_x_(i)) <= d * h_scale_(i))) return false;  // NaN: not near
+    if (!(std::abs(x_(i) - h_x_(i)) <= d * h_scale_(i))) return false;
   return true;
+}
+
+int Ekf::outputs_with_jacobian(std::span<const double> u, std::span<double> y) {
+  ++h_calls_;
+  if (output_jacobian_holds(u)) {
+    ++h_reuses_;
+    return model_.outputs(span_of(x_), u, y);
+  }
+  h_valid_ = false;
+  const int status = model_.output_jacobian(span_of(x_), u, y, span_of(H_));
+  if (status != plant::kModelOk || u.size() != h_u_.size()) return status;
+  h_x_ = x_;
+  std::copy(u.begin(), u.end(), h_u_.begin());
+  h_valid_ = true;
+  return status;
 }
 
 int Ekf::filter_output_estimates(std::span<const double> u, std::span<double> y,
                                  std::span<double> sigma) {
-  ++h_calls_;
-  const bool reuse = update_jacobian_holds(u);
-  h_valid_ = false;  // H_ is the update's only until it is overwritten below
-  const int status = reuse ? model_.outputs(span_of(x_), u, y)
-                           : model_.output_jacobian(span_of(x_), u, y, span_of(H_));
+  const int status = outputs_with_jacobian(u, y);
   if (status != plant::kModelOk) return status;
-  if (reuse) {
-    ++h_reuses_;
-    h_valid_ = true;  // H_ untouched: it still holds for a second call
-  }
   for (std::size_t r = 0; r < m_ && r < sigma.size(); ++r) {
     const auto o = static_cast<Eigen::Index>(r);
     ph_.noalias() = P_ * H_.row(o).transpose();

@@ -102,7 +102,10 @@ class Ekf final : public Estimator {
   // Sets x, P and the counters from a checkpoint and makes them the last good state; P must also
   // be positive definite (the health check's criterion). Keeps the initial covariance of the
   // last reset(). Restoring the (x, P, counters) of another instance built alike makes the next
-  // predict() and update() bit-for-bit those of the original.
+  // predict() and update() bit-for-bit those of the original, unless the original reuses a
+  // model or output Jacobian from before the checkpoint (jacobian_reuse_sigma > 0 and a state
+  // and inputs that stayed within it): the restored one evaluates it afresh, a difference within
+  // the reuse distance's linearisation error.
   bool restore(std::span<const double> x, std::span<const double> P_row_major,
                const EstimatorCounters& counters) override;
 
@@ -114,10 +117,12 @@ class Ekf final : public Estimator {
                     std::span<MeasurementReport> reports) override;
 
   // Every model output at the current estimate with its standard deviation from the delta
-  // method, σ² = H P Hᵀ. H is the update's (at x⁻) when no state has moved further from x⁻ than
-  // the integrator's jacobian_reuse_sigma (in units of its initial_std, the distance at which
-  // the integrator reuses a model Jacobian) and the inputs are the update's; else it is
-  // evaluated at the estimate. The outputs themselves are always evaluated at the estimate.
+  // method, σ² = H P Hᵀ. The output Jacobian H, here and in update(), is the last one evaluated
+  // while no state is further from where it was evaluated than the integrator's
+  // jacobian_reuse_sigma (in units of its initial_std, the distance at which the integrator
+  // reuses a model Jacobian) and no input further than that in units of its reuse_scale; else it
+  // is evaluated at the estimate. In steady operation one H serves many cycles, as one model
+  // Jacobian does. The outputs themselves are always evaluated at the estimate.
   int filter_output_estimates(std::span<const double> u, std::span<double> y,
                               std::span<double> sigma) override;
 
@@ -182,15 +187,17 @@ class Ekf final : public Estimator {
   Eigen::MatrixXd P_prior_;               // P before this update's fusion (after a reset: P0)
   Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
   std::uint64_t step_backs_ = 0;
-  Eigen::MatrixXd H_;  // m x n output Jacobian at x⁻
-  // Where H_ was evaluated by update(), for filter_output_estimates(): the state, the inputs,
-  // whether it still holds (predict(), reset() and restore() end it); the distance's unit per
-  // state (its initial_std).
+  Eigen::MatrixXd H_;  // m x n output Jacobian, evaluated at (h_x_, h_u_)
+  // Where H_ was evaluated: the state, the inputs, whether it holds (reset() and restore() end
+  // it); the distance's unit per state (its initial_std) and per input (its reuse_scale).
   Eigen::VectorXd h_x_, h_scale_;
-  std::vector<double> h_u_;
+  std::vector<double> h_u_, h_u_scale_;
   bool h_valid_ = false;
   std::uint64_t h_reuses_ = 0, h_calls_ = 0;
-  [[nodiscard]] bool update_jacobian_holds(std::span<const double> u) const;
+  // Whether H_ holds at (x_, u): evaluated within the integrator's jacobian_reuse_sigma of them.
+  [[nodiscard]] bool output_jacobian_holds(std::span<const double> u) const;
+  // The outputs at x_ into y, and H_ evaluated there unless it holds (see above).
+  int outputs_with_jacobian(std::span<const double> u, std::span<double> y);
   Eigen::VectorXd y_;  // h(x⁻)
   Eigen::VectorXd ph_, k_, bh_;
   Eigen::MatrixXd b_;

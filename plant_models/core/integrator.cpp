@@ -52,7 +52,13 @@ struct Integrator::Transition {
   Eigen::MatrixXd J_mid, E, T;
   Eigen::VectorXd y_start;  // the state there
   MatrixExponential expm;
-  long segments = 0;  // since creation, for statistics
+  long segments = 0;      // since creation, for statistics
+  long exponentials = 0;  // of them computed (the others were the last one again)
+  // What E was last computed of: the Jacobians' evaluation numbers at the segment's ends
+  // (JacobianCache::evaluations()) and its length. A unit in steady operation keeps one
+  // Jacobian over many periods of the same length, and with it one exponential.
+  long e_start = -1, e_end = -1;
+  double e_length = 0.0;
 };
 
 // CVODES callbacks. They never throw; model status codes pass straight through (0 ok, > 0
@@ -198,15 +204,22 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
 
 Integrator::~Integrator() = default;
 
+void Integrator::forget_jacobian() {
+  jacobians_->begin({}, 0.0);
+  if (transition_ != nullptr) transition_->e_start = -1;
+}
+
 IntegrationResult Integrator::step(std::span<double> x, std::span<const double> u, double dt,
                                    std::span<double> F) {
   Sundials& s = *s_;
   last_error_[0] = '\0';
   u_ = u;
-  jacobians_->invalidate();  // u (and the model's own state) may have changed since the last call
+  // u may have changed since the last call: the Jacobian is kept only within the reuse distance.
+  jacobians_->begin(u, options_.jacobian_reuse_sigma);
   const long jacobians0 = jacobians_->evaluations(), reuses0 = jacobians_->hits();
   const long solves0 = direct_sensitivity_solves(s.sens_solver);
   const long segments0 = transition_ != nullptr ? transition_->segments : 0;
+  const long exponentials0 = transition_ != nullptr ? transition_->exponentials : 0;
   double* y = N_VGetArrayPointer(s.y);
   std::memcpy(y, x.data(), n_ * sizeof(double));
   IntegrationResult result;
@@ -237,7 +250,10 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   stats_.sens_solves = direct_sensitivity_solves(s.sens_solver) - solves0;
   stats_.model_jacobians = jacobians_->evaluations() - jacobians0;
   stats_.jacobian_reuses = jacobians_->hits() - reuses0;
-  if (transition_ != nullptr) stats_.segments = transition_->segments - segments0;
+  if (transition_ != nullptr) {
+    stats_.segments = transition_->segments - segments0;
+    stats_.exponentials = transition_->exponentials - exponentials0;
+  }
   if (result.flag < 0) return result;
 
   if (s.ns > 0 && !F.empty()) {
@@ -272,9 +288,10 @@ int Integrator::exponential_steps(double dt, std::span<double> F) {
     return true;
   };
   if (!jacobian_at(tr.J_start)) return report("no model Jacobian at the initial state", 0.0);
+  long j_start = jacobians_->evaluations();
   tr.y_start = Eigen::Map<const Eigen::VectorXd>(y.data(), n);
   double t_start = 0.0, t = 0.0;
-  bool first = true;  // F is the identity until the first segment ends: F = E, no product
+  bool first = true;  // F is the identity until the first segment ends
   for (long steps = 1;; ++steps) {
     if (steps > options_.max_steps) {
       report("too many steps", t);
@@ -286,9 +303,19 @@ int Integrator::exponential_steps(double dt, std::span<double> F) {
     if (!end && jacobians_->within(y, y_start, reuse)) continue;
     // The segment [t_start, t] ends: F <- exp((J_start + J_end) / 2 (t - t_start)) F.
     if (!jacobian_at(tr.T)) return report("no model Jacobian", t);
-    tr.J_mid = 0.5 * (t - t_start) * (tr.J_start + tr.T);
+    const long j_end = jacobians_->evaluations();
+    const double length = t - t_start;
+    if (j_start != tr.e_start || j_end != tr.e_end || length != tr.e_length) {
+      tr.e_start = -1;  // E is being replaced
+      tr.J_mid = 0.5 * length * (tr.J_start + tr.T);
+      if (!tr.expm.compute(tr.J_mid, tr.E)) return report("no matrix exponential", t);
+      tr.e_start = j_start;
+      tr.e_end = j_end;
+      tr.e_length = length;
+      ++tr.exponentials;
+    }
     tr.J_start = tr.T;
-    if (!tr.expm.compute(tr.J_mid, tr.E)) return report("no matrix exponential", t);
+    j_start = j_end;
     if (first) {
       tr.F = tr.E;
     } else {

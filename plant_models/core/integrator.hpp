@@ -87,7 +87,11 @@ struct IntegratorOptions {
   // at every step's own state. F is then the derivative of BDF steps on the model linearised within
   // that distance of each step's state. Unlike reuse_newton_jacobian the reuse ends when the state
   // moves, not when CVODES's iteration stops converging (race_bench --jacobian-reuse measures the
-  // trade).
+  // trade). The Jacobian is also kept from one step() to the next while every input stays within
+  // this distance of the inputs it was evaluated at, in units of the input's reuse_scale (the
+  // layout's; 0 for an input without one: any change of it ends the reuse), and with it
+  // kExponential's last matrix exponential (the same Jacobians and segment length give the same
+  // exponential): a unit in steady operation evaluates neither in most periods.
   double jacobian_reuse_sigma = 0.0;
 };
 
@@ -100,6 +104,8 @@ struct IntegrationStats {
   long model_jacobians = 0;  // model Jacobians evaluated (each distinct state once)
   long jacobian_reuses = 0;  // Jacobian requests served from the one already evaluated
   long segments = 0;         // kExponential: matrix exponentials F was composed of
+  long exponentials = 0;     // of them computed; the others repeated the last one computed
+                             // (the same Jacobians and length, see jacobian_reuse_sigma)
   long error_test_failures = 0;
   long nonlinear_failures = 0;
 };
@@ -121,6 +127,10 @@ class Integrator {
   // its initial value and F untouched.
   IntegrationResult step(std::span<double> x, std::span<const double> u, double dt,
                          std::span<double> F);
+
+  // Forgets the kept Jacobian and exponential: the next step() evaluates its own, whatever the
+  // reuse distance (after a reset or a jump of the state the owner does not trust them).
+  void forget_jacobian();
 
   [[nodiscard]] const IntegrationStats& last_stats() const { return stats_; }
   // The last message CVODES reported (empty if none); fixed storage, no allocation.

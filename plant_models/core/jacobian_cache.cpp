@@ -10,10 +10,24 @@ JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
       n_(n),
       x_(new double[n]()),
       scale_(new double[n]()),
-      jac_(new double[n * n]()) {
+      jac_(new double[n * n]()),
+      u_(new double[model.layout().inputs.size()]()),
+      u_scale_(new double[model.layout().inputs.size()]()),
+      m_(model.layout().inputs.size()) {
   const auto& states = model.layout().states;
   for (std::size_t i = 0; i < n; ++i)
     scale_[i] = i < states.size() ? std::abs(states[i].initial_std) : 0.0;
+  const auto& inputs = model.layout().inputs;
+  for (std::size_t i = 0; i < m_; ++i)
+    u_scale_[i] = std::abs(inputs[i].reuse_scale);
+}
+
+void JacobianCache::begin(std::span<const double> u, double distance) {
+  if (!valid_) return;
+  bool keep = distance > 0.0 && u.size() == m_;
+  for (std::size_t i = 0; keep && i < m_; ++i)
+    keep = std::abs(u[i] - u_[i]) <= distance * u_scale_[i];  // NaN: not near
+  valid_ = keep;
 }
 
 bool JacobianCache::holds(std::span<const double> x) const {
@@ -56,6 +70,7 @@ int JacobianCache::get(std::span<const double> x, std::span<const double> u, con
   const int status = model_.rhs_jacobian(x, u, {}, {jac_.get(), n_ * n_});
   if (status != kModelOk) return status;
   std::memcpy(x_.get(), x.data(), n_ * sizeof(double));
+  if (u.size() == m_) std::memcpy(u_.get(), u.data(), m_ * sizeof(double));
   valid_ = true;
   *J = jac_.get();
   return kModelOk;

@@ -5,12 +5,14 @@
 // The key is the state's bit pattern: a request at exactly the state of the last evaluation
 // returns the stored matrix. get_near() also returns it for a state within a given distance of
 // the key, measured per state in units of its scale (the layout's initial_std): the integrator's
-// optional Jacobian reuse (IntegratorOptions::jacobian_reuse_sigma). The inputs u are not part of
-// the key: the owner calls invalidate() whenever u (or anything else the model reads) may have
-// changed, i.e. at the start of every Integrator::step().
+// optional Jacobian reuse (IntegratorOptions::jacobian_reuse_sigma). The inputs u are checked
+// only by begin(), which the owner calls whenever u may have changed, i.e. at the start of every
+// Integrator::step(): it forgets the matrix unless reuse is on and every input is within the
+// distance of the one the matrix was evaluated at (the layout's reuse_scale as its unit), so
+// that a unit in steady operation keeps one Jacobian over many periods.
 //
 // Ownership: holds a reference to the model (which must outlive it) and owns its n x n storage,
-// allocated at construction; get() and invalidate() never allocate or throw.
+// allocated at construction; begin() and the requests never allocate or throw.
 // Thread-safety: none; one instance per integrator.
 #pragma once
 
@@ -26,8 +28,9 @@ class JacobianCache {
  public:
   JacobianCache(const ContinuousModel& model, std::size_t n);
 
-  // Forgets the stored matrix (the next get() evaluates).
-  void invalidate() { valid_ = false; }
+  // Before requests at inputs u: keeps the stored matrix only if distance > 0 and every input is
+  // within distance * reuse_scale of the inputs it was evaluated at (see above).
+  void begin(std::span<const double> u, double distance);
 
   // J at (x, u), column-major n x n (J[c * n + r] = df_r/dx_c), in *J. Returns the model status
   // (kModelOk, > 0 recoverable, < 0 fatal); on failure *J is null and nothing is stored.
@@ -52,7 +55,8 @@ class JacobianCache {
     return jac_.get();
   }
 
-  // Model Jacobian evaluations and requests served from the store since construction.
+  // Model Jacobian evaluations and requests served from the store since construction. The
+  // stored matrix is evaluation number evaluations() (a request that evaluated changes it).
   [[nodiscard]] long evaluations() const { return evaluations_; }
   [[nodiscard]] long hits() const { return hits_; }
 
@@ -62,6 +66,9 @@ class JacobianCache {
   std::unique_ptr<double[]> x_;      // the key: the state of the stored matrix
   std::unique_ptr<double[]> scale_;  // per state: the unit of get_near()'s distance
   std::unique_ptr<double[]> jac_;    // n x n
+  std::unique_ptr<double[]> u_;      // the inputs of the stored matrix
+  std::unique_ptr<double[]> u_scale_;
+  std::size_t m_;
   bool valid_ = false;
   long evaluations_ = 0;
   long hits_ = 0;

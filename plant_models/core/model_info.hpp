@@ -79,6 +79,11 @@ struct SignalInfo {
   // measurement noise's part).
   double model_error = 0.0;
   double model_error_rel = 0.0;
+  // Inputs only: the input's counterpart of a state's initial_std for Jacobian reuse. A Jacobian
+  // (the model's or the outputs') evaluated at inputs u0 is reused at u while every
+  // |u_i - u0_i| <= d * reuse_scale_i, d the same distance in sigmas the states are held to
+  // (IntegratorOptions::jacobian_reuse_sigma). 0: any change of the input forces a new one.
+  double reuse_scale = 0.0;
 };
 
 // A physical constraint  sum_k coeff_k v_k <= bound,  over states (linear in the state, exact)

@@ -406,6 +406,17 @@ ModelLayout HeatPumpR32::make_layout() const {
                                        55.0,
                                        kRequired,
                                        "outdoor air temperature (condenser air inlet)"};
+  // How far an input may move before a Jacobian evaluated at its old value is evaluated again
+  // (in the same fraction as the states' initial_std): each moves the coils' duty about as much
+  // as a state moving by its own scale does (a wall temperature's 2 K, a cell enthalpy's
+  // 10 kJ/kg): 5 Hz of the compressor's speed is 10 % of its flow at 50 Hz, a valve's 0.05 of
+  // its stroke 13 % of its opening at 0.37, a fan's 0.05 of rated flow 5 % of the air side's
+  // conductance, 2 K of outdoor air as much as the condenser's wall.
+  l.inputs[hp::kCompressorSpeed].reuse_scale = 5.0;
+  l.inputs[hp::kValveOpening].reuse_scale = 0.05;
+  l.inputs[hp::kIndoorFan].reuse_scale = 0.05;
+  l.inputs[hp::kOutdoorFan].reuse_scale = 0.05;
+  l.inputs[hp::kOutdoorTemperature].reuse_scale = 2.0;
 
   l.outputs.resize(hp::kNumOutputs);
   const auto out = [&](hp::Output o, const char* name, const char* unit, double lo, double hi,

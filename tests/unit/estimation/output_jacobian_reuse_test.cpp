@@ -1,6 +1,7 @@
-// The published sigma reuses the update's output Jacobian while the update moved no state further
-// than the integrator's Jacobian-reuse distance (Ekf::filter_output_estimates), and evaluates it
-// afresh otherwise. Checked on the heat pump, whose output Jacobian changes with the state,
+// The update and the published sigma reuse the last output Jacobian while no state is further
+// from where it was evaluated than the integrator's Jacobian-reuse distance and no input further
+// than that in units of its reuse_scale (Ekf::outputs_with_jacobian), and evaluate it afresh
+// otherwise. Checked on the heat pump, whose output Jacobian changes with the state,
 // against sigma from an output Jacobian evaluated at the estimate (the filter's own part of the
 // published sigma: Estimator::output_estimates adds the outputs' structural error).
 #include <algorithm>
@@ -81,17 +82,23 @@ TEST_CASE("published sigma: the update's output Jacobian while the state stays n
   SECTION("a reading that agrees with the prior moves nothing: reused, sigma the same") {
     const est::Measurement z{.output = 0, .value = y[0], .variance = 1e8, .available = true};
     REQUIRE(ekf.update({&z, 1}, f.u, {&rep, 1}) == est::StepStatus::kOk);
+    CHECK(ekf.output_jacobian_reuses() == 0);  // the update's own, evaluated at the prior
     REQUIRE(ekf.output_estimates(f.u, y, sigma, own) == plant::kModelOk);
     CHECK(ekf.output_jacobian_reuses() == 1);
     CHECK(worst_relative(own, f.fresh_sigma(ekf)) < 1e-12);
-    // A second call at the same estimate still has it; other inputs do not.
+    // A second call at the same estimate still has it; an input moved by a fifth of its reuse
+    // distance too (the compressor's speed: reuse_scale 5 Hz, distance 0.05 of it); one moved
+    // by four times that distance does not.
     REQUIRE(ekf.output_estimates(f.u, y, sigma, own) == plant::kModelOk);
     CHECK(ekf.output_jacobian_reuses() == 2);
     std::vector<double> u2 = f.u;
-    u2[0] += 1.0;
+    u2[0] += 0.05;
     REQUIRE(ekf.output_estimates(u2, y, sigma, own) == plant::kModelOk);
-    CHECK(ekf.output_jacobian_reuses() == 2);
-    CHECK(ekf.output_estimate_calls() == 3);
+    CHECK(ekf.output_jacobian_reuses() == 3);
+    u2[0] = f.u[0] + 1.0;
+    REQUIRE(ekf.output_estimates(u2, y, sigma, own) == plant::kModelOk);
+    CHECK(ekf.output_jacobian_reuses() == 3);
+    CHECK(ekf.output_estimate_calls() == 5);
   }
   SECTION("a reading a little off moves the state a little: reused, sigma within 1 %") {
     const est::Measurement z{
@@ -111,12 +118,17 @@ TEST_CASE("published sigma: the update's output Jacobian while the state stays n
     CHECK(ekf.output_jacobian_reuses() == 0);
     CHECK(worst_relative(own, f.fresh_sigma(ekf)) < 1e-12);
   }
-  SECTION("after a prediction the update's Jacobian no longer holds") {
+  SECTION("steady operation: the next cycles' updates and sigma reuse it, sigma within 1 %") {
     const est::Measurement z{.output = 0, .value = y[0], .variance = 1e8, .available = true};
     REQUIRE(ekf.update({&z, 1}, f.u, {&rep, 1}) == est::StepStatus::kOk);
-    REQUIRE(ekf.predict(f.u, 1.0) == est::StepStatus::kOk);
-    REQUIRE(ekf.output_estimates(f.u, y, sigma, own) == plant::kModelOk);
-    CHECK(ekf.output_jacobian_reuses() == 0);
+    for (int k = 0; k < 3; ++k) {
+      REQUIRE(ekf.predict(f.u, 1.0) == est::StepStatus::kOk);
+      REQUIRE(ekf.update({&z, 1}, f.u, {&rep, 1}) == est::StepStatus::kOk);
+      REQUIRE(ekf.output_estimates(f.u, y, sigma, own) == plant::kModelOk);
+    }
+    CHECK(ekf.output_jacobian_reuses() == 6);
+    CHECK(ekf.output_estimate_calls() == 7);
+    CHECK(worst_relative(own, f.fresh_sigma(ekf)) < 1e-2);
   }
 }
 
