@@ -141,7 +141,8 @@ void Ekf::reset(std::span<const double> x0, std::span<const double> std0) {
   P_good_ = P_;
   P_initial_ = P_;
   lost_updates_ = 0;
-  recovery_left_ = 0;
+  recovering_ = false;
+  clean_updates_ = 0;
   streaks_.clear();
   h_valid_ = false;
   integrator_.forget_jacobian();
@@ -164,7 +165,8 @@ bool Ekf::restore(std::span<const double> x, std::span<const double> P_row_major
   P_good_ = P_;
   counters_ = counters;
   lost_updates_ = 0;
-  recovery_left_ = 0;
+  recovering_ = false;
+  clean_updates_ = 0;
   streaks_.clear();
   active_count_ = 0;
   h_valid_ = false;
@@ -209,9 +211,12 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   const bool lost = lost_updates_ >= options_.max_consecutive_rejections;
   // Arming a faulty point for a test against the initial covariance: the only available one, or,
   // in the updates after a reset for lost track, any point rejected while most others pass.
-  const bool recovering = recovery_left_ > 0 && 2 * rejected <= available;
-  if (recovery_left_ > 0) --recovery_left_;
-  if ((available == 1 && rejected == 1) || recovering) arm_faulty(reports, count);
+  if (recovering_) {
+    clean_updates_ = rejected == 0 && available > 0 ? clean_updates_ + 1 : 0;
+    if (clean_updates_ >= kRecoveredAfterUpdates) recovering_ = false;
+  }
+  if ((available == 1 && rejected == 1) || (recovering_ && 2 * rejected <= available))
+    arm_faulty(reports, count);
   const bool readmit = readmission_due(z, reports, count);
   const bool reset = readmit || lost;
   if (reset) {
@@ -222,7 +227,10 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     // instead, so that a transmitter that went wrong does not get in through the wide
     // covariance.
     lost_updates_ = 0;
-    if (lost) recovery_left_ = kRecoveryUpdates * options_.max_consecutive_rejections;
+    if (lost) {
+      recovering_ = true;
+      clean_updates_ = 0;
+    }
     ++counters_.covariance_resets;
     counters_.gate_rejections -= rejected;
     for (std::size_t i = 0; i < count; ++i) {

@@ -30,13 +30,14 @@
 // test backs off, its interval doubling, while the point stays wrong. A point
 // rejected alone while others are fused is not re-admitted so: from one point a drift and a
 // structural mismatch of the model look the same, and a reset every few updates for a biased
-// sensor would throw away what the filter knows of the slow states. Except just after a reset for
-// lost track (within kRecoveryUpdates x max_consecutive_rejections updates of it): the readings
-// fused in the episode may have left a state that only this point sees confidently wrong, and
-// the filter's knowledge is suspect anyway; such a point, rejected max_consecutive_rejections
-// times in a row while most others pass, is armed at once (lost_track_test: after absurd readings
-// on six of seven points the condenser-outlet wall, right again, was otherwise gated out for good
-// and the discharge pressure stayed 3 sigma off; recovery_test). A point that is the only
+// sensor would throw away what the filter knows of the slow states. Except after a reset for
+// lost track, until every available point has passed the gate kRecoveredAfterUpdates (12)
+// updates in a row: the readings fused in the episode may have left a state that only this point
+// sees confidently wrong, and the filter's knowledge is suspect anyway; such a point, rejected
+// max_consecutive_rejections times in a row while most others pass, is armed at once
+// (lost_track_test: after absurd readings on six of seven points the condenser-outlet wall, right
+// again, was otherwise gated out for good, or for most updates, and the discharge pressure stayed
+// 3 sigma off; recovery_test). A point that is the only
 // available one is: rejected max_consecutive_rejections times in a row, it is tested against
 // the initial covariance at once and then with the same back-off, unless its reading has not
 // changed once in the streak (a frozen transmitter, for the stuck check). Alone, there is no other
@@ -210,10 +211,12 @@ class Ekf final : public Estimator {
   // max_consecutive_rejections rejections later, the interval doubling after each test.
   RejectionStreaks streaks_;
   int lost_updates_ = 0;  // consecutive updates with most points gated out
-  // Updates left, in max_consecutive_rejections, after a reset for lost track in which a point
-  // rejected while most others pass is armed at once (see ekf.hpp, "Re-admission").
-  static constexpr int kRecoveryUpdates = 4;
-  int recovery_left_ = 0;
+  // After a reset for lost track, until every available point has passed the gate
+  // kRecoveredAfterUpdates updates in a row: a point rejected while most others pass is armed at
+  // once (see the top of this file, "Re-admission").
+  static constexpr int kRecoveredAfterUpdates = 12;
+  bool recovering_ = false;
+  int clean_updates_ = 0;      // updates in a row, while recovering, with every available point in
   std::vector<int> held_;      // per slot, after a reset: its rejections in a row before, or -1
   std::vector<double> x_buf_;  // contiguous scratch for the integrator
 
