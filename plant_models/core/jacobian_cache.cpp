@@ -1,5 +1,6 @@
 #include "plant_models/core/jacobian_cache.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -70,7 +71,8 @@ int JacobianCache::get(std::span<const double> x, std::span<const double> u, con
   const int status = model_.rhs_jacobian(x, u, {}, {jac_.get(), n_ * n_});
   if (status != kModelOk) return status;
   std::memcpy(x_.get(), x.data(), n_ * sizeof(double));
-  if (u.size() == m_) std::memcpy(u_.get(), u.data(), m_ * sizeof(double));
+  // std::copy, not memcpy: a model without inputs passes an empty span, whose data() may be null.
+  if (u.size() == m_) std::copy(u.begin(), u.end(), u_.get());
   valid_ = true;
   *J = jac_.get();
   return kModelOk;
