@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "daemon/estimation/truncation.hpp"
+#include "plant_models/core/reuse_distance.hpp"
 
 namespace hvac_twin::est {
 namespace {
@@ -20,6 +21,9 @@ std::span<double> span_of(Eigen::VectorXd& v) {
 }
 std::span<double> span_of(Eigen::MatrixXd& m) {
   return {m.data(), static_cast<std::size_t>(m.size())};
+}
+std::span<const double> span_of(const Eigen::VectorXd& v) {
+  return {v.data(), static_cast<std::size_t>(v.size())};
 }
 
 }  // namespace
@@ -406,12 +410,8 @@ void Ekf::fuse(std::size_t output, double innovation_at_prior, double r) {
 
 bool Ekf::output_jacobian_holds(std::span<const double> u) const {
   const double d = options_.integrator.jacobian_reuse_sigma;
-  if (!h_valid_ || !(d > 0.0) || u.size() != h_u_.size()) return false;
-  for (std::size_t i = 0; i < u.size(); ++i)
-    if (!(std::abs(u[i] - h_u_[i]) <= d * h_u_scale_[i])) return false;  // NaN: not near
-  for (Eigen::Index i = 0; i < x_.size(); ++i)
-    if (!(std::abs(x_(i) - h_x_(i)) <= d * h_scale_(i))) return false;
-  return true;
+  return h_valid_ && d > 0.0 && plant::within_scaled(u, h_u_, h_u_scale_, d) &&
+         plant::within_scaled(span_of(x_), span_of(h_x_), span_of(h_scale_), d);
 }
 
 int Ekf::outputs_with_jacobian(std::span<const double> u, std::span<double> y) {

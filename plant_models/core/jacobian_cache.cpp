@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "plant_models/core/reuse_distance.hpp"
+
 namespace hvac_twin::plant {
 
 JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
@@ -25,10 +27,7 @@ JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
 
 void JacobianCache::begin(std::span<const double> u, double distance) {
   if (!valid_) return;
-  bool keep = distance > 0.0 && u.size() == m_;
-  for (std::size_t i = 0; keep && i < m_; ++i)
-    keep = std::abs(u[i] - u_[i]) <= distance * u_scale_[i];  // NaN: not near
-  valid_ = keep;
+  valid_ = distance > 0.0 && within_scaled(u, {u_.get(), m_}, {u_scale_.get(), m_}, distance);
 }
 
 bool JacobianCache::holds(std::span<const double> x) const {
@@ -43,10 +42,7 @@ bool JacobianCache::near(std::span<const double> x, double distance) const {
 
 bool JacobianCache::within(std::span<const double> a, std::span<const double> b,
                            double distance) const {
-  if (a.size() != n_ || b.size() != n_) return false;
-  for (std::size_t i = 0; i < n_; ++i)
-    if (!(std::abs(a[i] - b[i]) <= distance * scale_[i])) return false;  // NaN: not near
-  return true;
+  return a.size() == n_ && within_scaled(a, b, {scale_.get(), n_}, distance);
 }
 
 int JacobianCache::get_near(std::span<const double> x, std::span<const double> u, double distance,
