@@ -74,12 +74,20 @@ struct IntegratorCallbacks {
     return it.model_.rhs(view(y), it.u_, view(ydot));
   }
 
+  // CVODES asks for a Jacobian at a step's first iterate when its own copy is too old, and after
+  // a Newton iteration failed to converge. The second is a request for a fresh matrix: a kept one
+  // (jacobian_reuse_sigma) is the likely cause of the failure, and handing it back would fail
+  // again and again, each time on a smaller step.
   static int jacobian(realtype /*t*/, N_Vector y, N_Vector /*fy*/, SUNMatrix jac, void* user_data,
                       N_Vector, N_Vector, N_Vector) {
     Integrator& it = self(user_data);
+    long failures = 0;
+    CVodeGetNumNonlinSolvConvFails(it.s_->cvode, &failures);
+    const bool after_failure = failures > it.newton_failures_seen_;
+    it.newton_failures_seen_ = failures;
     const double* J = nullptr;
-    const int status =
-        it.jacobians_->get_near(view(y), it.u_, it.options_.jacobian_reuse_sigma, &J);
+    const int status = it.jacobians_->get_near(
+        view(y), it.u_, after_failure ? 0.0 : it.options_.jacobian_reuse_sigma, &J);
     if (status != kModelOk) return status;
     std::memcpy(SUNDenseMatrix_Data(jac), J, it.n_ * it.n_ * sizeof(double));  // ld = n
     return 0;
@@ -223,7 +231,8 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   double* y = N_VGetArrayPointer(s.y);
   std::memcpy(y, x.data(), n_ * sizeof(double));
   IntegrationResult result;
-  result.flag = CVodeReInit(s.cvode, 0.0, s.y);
+  result.flag = CVodeReInit(s.cvode, 0.0, s.y);  // CVODES's counters start again from 0
+  newton_failures_seen_ = 0;
   if (result.flag >= 0 && transition_ == nullptr && options_.sensitivities) {
     for (int j = 0; j < s.ns; ++j) {
       N_VConst(0.0, s.yS[j]);

@@ -91,7 +91,8 @@ struct IntegratorOptions {
   // this distance of the inputs it was evaluated at, in units of the input's reuse_scale (the
   // layout's; 0 for an input without one: any change of it ends the reuse), and with it
   // kExponential's last matrix exponential (the same Jacobians and segment length give the same
-  // exponential): a unit in steady operation evaluates neither in most periods.
+  // exponential): a unit in steady operation evaluates neither in most periods. CVODES's Newton
+  // matrix after a failed Newton iteration is always evaluated afresh at its own state.
   double jacobian_reuse_sigma = 0.0;
 };
 
@@ -155,6 +156,7 @@ class Integrator {
   std::unique_ptr<Transition> transition_;     // kExponential only
   std::unique_ptr<double[]> sens_, sens_dot_;  // n x n: sensitivities gathered, and J S
   IntegrationStats stats_;
+  long newton_failures_seen_ = 0;  // CVODES's count at this step()'s last Jacobian request
   std::array<char, 256> last_error_{};
 };
 

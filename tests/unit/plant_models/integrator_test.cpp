@@ -247,3 +247,29 @@ TEST_CASE("the piecewise-exponential F keeps to the step limit and says so", "[i
   CHECK(F[0] == -1.0);
   CHECK(std::string(integ.last_error()).find("too many steps") != std::string::npos);
 }
+
+TEST_CASE("a Newton iteration that failed gets a fresh Jacobian, whatever the reuse distance",
+          "[integrator][reuse]") {
+  // Robertson's kinetics from its start, where y2 = y3 = 0 and the Jacobian has none of the
+  // stiff terms that appear as y2 grows; a reuse distance that keeps that first matrix for the
+  // whole interval. The Newton iteration on it fails once the stiff terms matter, and each failure
+  // must bring a fresh matrix: handed the kept one again, CVODES can only shrink its step.
+  const AdModel<Robertson> model{Robertson{}};
+  IntegratorOptions opt;
+  opt.rel_tol = 1e-6;
+  opt.jacobian_reuse_sigma = 1e9;
+  Integrator kept(model, opt);
+  opt.jacobian_reuse_sigma = 0.0;
+  Integrator fresh(model, opt);
+  std::vector<double> xk{1.0, 0.0, 0.0}, xf = xk;
+  REQUIRE(kept.step(xk, {}, 40.0, {}).ok());
+  REQUIRE(fresh.step(xf, {}, 40.0, {}).ok());
+  const IntegrationStats& s = kept.last_stats();
+  INFO("steps " << s.steps << " (fresh: " << fresh.last_stats().steps << "), Newton failures "
+                << s.nonlinear_failures << ", Jacobians " << s.model_jacobians);
+  REQUIRE(s.nonlinear_failures > 0);
+  CHECK(s.model_jacobians > 1);
+  CHECK(s.steps <= 2 * fresh.last_stats().steps);
+  for (std::size_t i = 0; i < 3; ++i)
+    CHECK(xk[i] == Approx(xf[i]).epsilon(1e-4).margin(1e-9));
+}
