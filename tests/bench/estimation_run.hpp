@@ -162,6 +162,9 @@ struct FilterRun {
       o.members = members;
       o.threads = threads;
       tolerance_from_env(o.integrator, "BENCH_ENKF_RTOL");  // the members' tolerance
+      // The members' Jacobian reuse distance (est::member_integrator_options), to compare.
+      if (const char* d = std::getenv("BENCH_ENKF_JACOBIAN_REUSE"))
+        o.integrator.jacobian_reuse_sigma = std::atof(d);
       filter = std::make_unique<est::ConstrainedEnkf>(*model, q, kMeasured.size(), o);
     } else {
       est::EkfOptions o;
