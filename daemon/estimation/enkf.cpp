@@ -7,13 +7,20 @@
 
 namespace hvac_twin::est {
 
+// A thread's scratch space: nothing in it outlives one member.
 struct ConstrainedEnkf::Worker {
+  std::unique_ptr<ConstrainedProjection> projection;
+  Eigen::VectorXd xe;
+};
+
+// A fixed chain of members (see enkf.hpp): everything that carries over from one member to the
+// next, or from one period to the next, is here, so it does not depend on the threads.
+struct ConstrainedEnkf::Lane {
+  std::size_t begin = 0, end = 0;  // its members
   std::unique_ptr<plant::ContinuousModel> model;
   std::unique_ptr<plant::Integrator> integrator;
-  std::unique_ptr<ConstrainedProjection> projection;
   std::vector<double> x, y;
-  Eigen::VectorXd xe;
-  std::vector<int> active;  // rows active for this worker's members in the last constrain()
+  std::vector<int> active;  // rows active for this lane's members in the last constrain()
   std::size_t active_count = 0;
 };
 
@@ -24,7 +31,25 @@ plant::IntegratorOptions without_sensitivities(plant::IntegratorOptions o) {
   return o;
 }
 
+// Adds `row` to the first `count` entries of `rows` unless it is there (or there is no room).
+void note_active(std::vector<int>& rows, std::size_t& count, int row) {
+  const auto end = rows.begin() + static_cast<long>(count);
+  if (std::find(rows.begin(), end, row) == end && count < rows.size()) rows[count++] = row;
+}
+
 }  // namespace
+
+template <class Fn>
+void ConstrainedEnkf::each_member(Fn& fn) {
+  auto task = [&](std::size_t w, std::size_t lb, std::size_t le) {
+    for (std::size_t l = lb; l < le; ++l) {
+      Lane& lane = *lanes_[l];
+      for (std::size_t i = lane.begin; i < lane.end; ++i)
+        fn(*workers_[w], lane, i);
+    }
+  };
+  pool_.run(lanes_.size(), task);
+}
 
 ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
                                  std::span<const double> process_noise,
@@ -44,16 +69,23 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
     q_(i) = process_noise[static_cast<std::size_t>(i)] * process_noise[static_cast<std::size_t>(i)];
   for (std::size_t w = 0; w < pool_.size(); ++w) {
     auto worker = std::make_unique<Worker>();
-    worker->model = model.clone();
-    worker->integrator = std::make_unique<plant::Integrator>(
-        *worker->model, without_sensitivities(options.integrator));
     worker->projection =
         std::make_unique<ConstrainedProjection>(n_, constraints_.rows(), options.projection);
-    worker->x.assign(n_, 0.0);
-    worker->y.assign(m_, 0.0);
     worker->xe = Eigen::VectorXd::Zero(n);
-    worker->active.assign(options.projection.max_active + constraints_.rows(), -1);
     workers_.push_back(std::move(worker));
+  }
+  const std::size_t lanes = std::clamp<std::size_t>(options.lanes, 1, N_);
+  for (std::size_t l = 0; l < lanes; ++l) {
+    auto lane = std::make_unique<Lane>();
+    lane->begin = l * N_ / lanes;
+    lane->end = (l + 1) * N_ / lanes;
+    lane->model = model.clone();
+    lane->integrator = std::make_unique<plant::Integrator>(
+        *lane->model, without_sensitivities(options.integrator));
+    lane->x.assign(n_, 0.0);
+    lane->y.assign(m_, 0.0);
+    lane->active.assign(options.projection.max_active + constraints_.rows(), -1);
+    lanes_.push_back(std::move(lane));
   }
   for (std::size_t i = 0; i < N_; ++i)
     rng_.emplace_back(options.seed * 1000003ULL + i);
@@ -149,21 +181,18 @@ bool ConstrainedEnkf::restore(std::span<const double> x, std::span<const double>
 
 StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {
   ++counters_.predicts;
-  auto task = [&](std::size_t w, std::size_t b, std::size_t e) {
-    Worker& W = *workers_[w];
-    for (std::size_t i = b; i < e; ++i) {
-      const auto I = static_cast<Eigen::Index>(i);
-      for (std::size_t j = 0; j < n_; ++j)
-        W.x[j] = X_(static_cast<Eigen::Index>(j), I);
-      ok_[i] = W.integrator->step(W.x, u, dt, {}).ok() ? 1 : 0;
-      if (!ok_[i]) continue;
-      for (std::size_t j = 0; j < n_; ++j) {
-        const auto J = static_cast<Eigen::Index>(j);
-        X_(J, I) = W.x[j] + std::sqrt(q_(J) * dt) * normal(i);
-      }
+  auto task = [&](Worker&, Lane& L, std::size_t i) {
+    const auto I = static_cast<Eigen::Index>(i);
+    for (std::size_t j = 0; j < n_; ++j)
+      L.x[j] = X_(static_cast<Eigen::Index>(j), I);
+    ok_[i] = L.integrator->step(L.x, u, dt, {}).ok() ? 1 : 0;
+    if (!ok_[i]) return;
+    for (std::size_t j = 0; j < n_; ++j) {
+      const auto J = static_cast<Eigen::Index>(j);
+      X_(J, I) = L.x[j] + std::sqrt(q_(J) * dt) * normal(i);
     }
   };
-  pool_.run(N_, task);
+  each_member(task);
   // A member that failed is replaced by a copy of the next one that did not.
   std::size_t failed = 0;
   for (std::size_t i = 0; i < N_; ++i) {
@@ -195,18 +224,15 @@ StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {
 }
 
 bool ConstrainedEnkf::evaluate_outputs(std::span<const double> u) {
-  auto task = [&](std::size_t w, std::size_t b, std::size_t e) {
-    Worker& W = *workers_[w];
-    for (std::size_t i = b; i < e; ++i) {
-      const auto I = static_cast<Eigen::Index>(i);
-      for (std::size_t j = 0; j < n_; ++j)
-        W.x[j] = X_(static_cast<Eigen::Index>(j), I);
-      ok_[i] = W.model->outputs(W.x, u, W.y) == plant::kModelOk ? 1 : 0;
-      for (std::size_t o = 0; o < m_; ++o)
-        Y_(static_cast<Eigen::Index>(o), I) = W.y[o];
-    }
+  auto task = [&](Worker&, Lane& L, std::size_t i) {
+    const auto I = static_cast<Eigen::Index>(i);
+    for (std::size_t j = 0; j < n_; ++j)
+      L.x[j] = X_(static_cast<Eigen::Index>(j), I);
+    ok_[i] = L.model->outputs(L.x, u, L.y) == plant::kModelOk ? 1 : 0;
+    for (std::size_t o = 0; o < m_; ++o)
+      Y_(static_cast<Eigen::Index>(o), I) = L.y[o];
   };
-  pool_.run(N_, task);
+  each_member(task);
   return std::all_of(ok_.begin(), ok_.end(), [](char c) { return c != 0; });
 }
 
@@ -357,64 +383,47 @@ void ConstrainedEnkf::constrain(std::span<const double> u) {
   metric_.setZero();
   for (Eigen::Index i = 0; i < static_cast<Eigen::Index>(n_); ++i)
     metric_(i, i) = std::max(P_(i, i), 1e-12 * (1.0 + mean_(i) * mean_(i)));
-  auto project = [&](std::size_t w, std::size_t b, std::size_t e) {
-    Worker& W = *workers_[w];
-    W.active_count = 0;
-    for (std::size_t i = b; i < e; ++i) {
-      W.xe = X_.col(static_cast<Eigen::Index>(i));
-      W.projection->solve(W.xe, metric_, constraints_.A(), constraints_.b(), constraints_.scale(),
-                          constraints_.static_rows());
-      for (std::size_t j = 0; j < n_; ++j)  // a consider state keeps its member values
-        if (consider_[j] == 0)
-          X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) =
-              W.xe(static_cast<Eigen::Index>(j));
-      for (const int row : W.projection->active()) {
-        const bool known =
-            std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
-                      row) != W.active.begin() + static_cast<long>(W.active_count);
-        if (!known && W.active_count < W.active.size()) W.active[W.active_count++] = row;
-      }
-    }
+  for (auto& L : lanes_)
+    L->active_count = 0;
+  auto project = [&](Worker& W, Lane& L, std::size_t i) {
+    W.xe = X_.col(static_cast<Eigen::Index>(i));
+    W.projection->solve(W.xe, metric_, constraints_.A(), constraints_.b(), constraints_.scale(),
+                        constraints_.static_rows());
+    for (std::size_t j = 0; j < n_; ++j)  // a consider state keeps its member values
+      if (consider_[j] == 0)
+        X_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) =
+            W.xe(static_cast<Eigen::Index>(j));
+    for (const int row : W.projection->active())
+      note_active(L.active, L.active_count, row);
   };
-  pool_.run(N_, project);
+  each_member(project);
 
   // Output constraints: a violating member is drawn towards the ensemble mean.
   if (constraints_.has_output_rows() && !u.empty()) {
     statistics();
-    auto shrink = [&](std::size_t w, std::size_t b, std::size_t e) {
-      Worker& W = *workers_[w];
-      for (std::size_t i = b; i < e; ++i) {
-        const auto I = static_cast<Eigen::Index>(i);
-        double alpha = 1.0;
-        int violated = -1;
-        for (int k = 0; k < 10; ++k, alpha *= 0.5) {
-          for (std::size_t j = 0; j < n_; ++j) {
-            const auto J = static_cast<Eigen::Index>(j);
-            W.x[j] = mean_(J) + alpha * (X_(J, I) - mean_(J));
-          }
-          if (W.model->outputs(W.x, u, W.y) != plant::kModelOk) continue;
-          int row = -1;
-          if (constraints_.output_violation(W.y, &row) <= 0.0) break;
-          if (violated < 0) violated = row;
+    auto shrink = [&](Worker&, Lane& L, std::size_t i) {
+      const auto I = static_cast<Eigen::Index>(i);
+      double alpha = 1.0;
+      int violated = -1;
+      for (int k = 0; k < 10; ++k, alpha *= 0.5) {
+        for (std::size_t j = 0; j < n_; ++j) {
+          const auto J = static_cast<Eigen::Index>(j);
+          L.x[j] = mean_(J) + alpha * (X_(J, I) - mean_(J));
         }
-        for (std::size_t j = 0; j < n_; ++j)
-          if (consider_[j] == 0) X_(static_cast<Eigen::Index>(j), I) = W.x[j];
-        const bool known =
-            std::find(W.active.begin(), W.active.begin() + static_cast<long>(W.active_count),
-                      violated) != W.active.begin() + static_cast<long>(W.active_count);
-        if (violated >= 0 && !known && W.active_count < W.active.size())
-          W.active[W.active_count++] = violated;
+        if (L.model->outputs(L.x, u, L.y) != plant::kModelOk) continue;
+        int row = -1;
+        if (constraints_.output_violation(L.y, &row) <= 0.0) break;
+        if (violated < 0) violated = row;
       }
+      for (std::size_t j = 0; j < n_; ++j)
+        if (consider_[j] == 0) X_(static_cast<Eigen::Index>(j), I) = L.x[j];
+      if (violated >= 0) note_active(L.active, L.active_count, violated);
     };
-    pool_.run(N_, shrink);
+    each_member(shrink);
   }
-  for (const auto& W : workers_)
-    for (std::size_t k = 0; k < W->active_count; ++k) {
-      const int row = W->active[k];
-      if (std::find(active_.begin(), active_.begin() + static_cast<long>(active_count_), row) ==
-          active_.begin() + static_cast<long>(active_count_))
-        active_[active_count_++] = row;
-    }
+  for (const auto& L : lanes_)  // in lane order: the same list on any number of threads
+    for (std::size_t k = 0; k < L->active_count; ++k)
+      note_active(active_, active_count_, L->active[k]);
 
   if (active_count_ > 0) ++counters_.constrained_updates;
 }

@@ -21,13 +21,16 @@
 // members.
 //
 // Every random draw comes from the member's own generator (seeded from `seed` and the member
-// index), so the draws do not depend on how members are spread over threads. The integrations
-// do, within their tolerance, where a worker's evaluations carry state from one member to the
-// next: the Jacobian it keeps (member_integrator_options) and a model's own warm starts (the
-// heat pump's pressure solve starts from its last solution). On the heat pump a run on one
-// thread and on two therefore differ (estimation_bench: valve-inlet enthalpy MAPE 0.119 against
-// 0.134 % with no Jacobian kept at all); on a model without such state they are identical
-// (enkf_test). Construction allocates; nothing after it does.
+// index), and the members are integrated in fixed lanes (`lanes`, contiguous chains of members),
+// each with its own model clone and integrator: what a model or an integrator carries from one
+// evaluation to the next (the Newton Jacobian kept, member_integrator_options; the heat pump's
+// pressure solve, warm-started from its last solution) passes along a lane, in member order,
+// from period to period. The pool's threads take whole lanes, so the estimates are the same, to
+// the bit, on any number of threads (enkf_test, on the zone and on the heat pump); they depend
+// on `lanes`. (Before the lanes, a worker thread carried that state through its own share of the
+// members, and one thread and two differed at the integrator's tolerance, which the ensemble
+// amplified: valve-inlet enthalpy MAPE 0.119 against 0.134 % in estimation_bench.) Construction
+// allocates; nothing after it does.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -55,7 +58,7 @@ namespace hvac_twin::est {
 // condenser-outlet pressure 0.122 / 0.121 / 0.125 %, evaporator heat flow within 125 / 125 /
 // 129 W; mismatched truth (1e-6 / 1e-4) 0.095 / 0.096 % and 128 / 129 W, NIS 1.00 / 1.01.
 //
-// The members' Newton matrices: a worker keeps one model Jacobian from member to member while
+// The members' Newton matrices: a lane keeps one model Jacobian from member to member while
 // the state is within 2 initial standard deviations of where it was evaluated
 // (plant::IntegratorOptions::jacobian_reuse_sigma; a Newton iteration that fails gets a fresh
 // one). A Newton matrix only has to make the iteration converge, not F exact, and the members
@@ -74,6 +77,8 @@ inline plant::IntegratorOptions member_integrator_options() {
 struct EnkfOptions {
   std::size_t members = 32;
   std::size_t threads = 2;  // workers, the calling thread included
+  // Fixed chains of members (above); at most `members`. More threads than lanes idle.
+  std::size_t lanes = 8;
   double inflation = 1.02;  // multiplies the anomalies at each predict
   double nis_gate = 10.83;
   // Huber's c [innovation sigmas], as the EKF's (est::robust_variance): the perturbed
@@ -121,6 +126,10 @@ class ConstrainedEnkf final : public Estimator {
 
  private:
   struct Worker;
+  struct Lane;
+  // fn(worker, lane, member) for every member, each lane's in order, lanes spread over threads.
+  template <class Fn>
+  void each_member(Fn& fn);
   void statistics();                                 // mean_, anomalies_, P_ from X_
   bool evaluate_outputs(std::span<const double> u);  // Y_ = h(X_); false if a member failed
   void constrain(std::span<const double> u);         // u empty: state constraints only
@@ -136,6 +145,7 @@ class ConstrainedEnkf final : public Estimator {
   Eigen::VectorXd q_;  // process-noise intensities (variance per second)
   WorkerPool pool_;
   std::vector<std::unique_ptr<Worker>> workers_;
+  std::vector<std::unique_ptr<Lane>> lanes_;
   std::vector<std::mt19937_64> rng_;
   std::vector<std::normal_distribution<double>> gauss_;  // per member: no shared state
 

@@ -73,8 +73,14 @@ class AdModel final : public ContinuousModel {
     }
   }
 
+  // A clone starts as the model was built: without the warm starts its source has gathered
+  // (a model's forget_warm_starts()), so that what it computes does not depend on when it was
+  // cloned.
   [[nodiscard]] std::unique_ptr<ContinuousModel> clone() const override {
-    return std::make_unique<AdModel>(model_);
+    auto copy = std::make_unique<AdModel>(model_);
+    if constexpr (requires { copy->model_.forget_warm_starts(); })
+      copy->model_.forget_warm_starts();
+    return copy;
   }
 
  private:

@@ -54,6 +54,14 @@ class HeatPumpR32 {
   [[nodiscard]] static hp::ProfileOptions profile_options(const hp::Params& p, bool condenser,
                                                           std::size_t cells);
 
+  // Drops the pressure solve's warm start and the cell jets, so that what follows does not
+  // depend on what was evaluated before (a clone starts so: AdModel::clone).
+  void forget_warm_starts() const {
+    cache_valid_ = false;
+    for (auto& jet : cell_jets_)
+      jet.valid = false;
+  }
+
   template <class S>
   int rhs(std::span<const S> x, std::span<const double> u, std::span<S> xdot) const;
   template <class S>

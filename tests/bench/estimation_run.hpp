@@ -98,6 +98,13 @@ inline const std::vector<std::size_t>& nees_outputs() {
   return o;
 }
 
+// The environment variable `name` as a number, or `fallback` when it is not set (a knob to compare
+// settings with; see the callers).
+inline double number_from_env(const char* name, double fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr ? std::atof(v) : fallback;
+}
+
 // A relative tolerance from the environment variable `name`, if set, with the absolute
 // tolerances scaled alike (the model's are meant for 1e-6).
 inline void tolerance_from_env(plant::IntegratorOptions& o, const char* name) {
@@ -110,8 +117,7 @@ inline void tolerance_from_env(plant::IntegratorOptions& o, const char* name) {
 // The parameters' release ramp, the daemon's default (estimator.parameter_release_s), or env
 // BENCH_RELEASE_S to compare (0: at once).
 inline double release_s() {
-  const char* r = std::getenv("BENCH_RELEASE_S");
-  return r != nullptr ? std::atof(r) : config::EstimatorConfig{}.parameter_release_s;
+  return number_from_env("BENCH_RELEASE_S", config::EstimatorConfig{}.parameter_release_s);
 }
 
 // The plain simulation the step is timed against: the EKF's state tolerances (BENCH_RTOL
@@ -162,17 +168,19 @@ struct FilterRun {
       o.members = members;
       o.threads = threads;
       tolerance_from_env(o.integrator, "BENCH_ENKF_RTOL");  // the members' tolerance
-      // The members' Jacobian reuse distance (est::member_integrator_options), to compare.
-      if (const char* d = std::getenv("BENCH_ENKF_JACOBIAN_REUSE"))
-        o.integrator.jacobian_reuse_sigma = std::atof(d);
+      // The members' Jacobian reuse distance (est::member_integrator_options) and their lanes.
+      o.integrator.jacobian_reuse_sigma =
+          number_from_env("BENCH_ENKF_JACOBIAN_REUSE", o.integrator.jacobian_reuse_sigma);
+      o.lanes = static_cast<std::size_t>(
+          number_from_env("BENCH_ENKF_LANES", static_cast<double>(o.lanes)));
       filter = std::make_unique<est::ConstrainedEnkf>(*model, q, kMeasured.size(), o);
     } else {
       est::EkfOptions o;
       o.constrained = name == "constrained EKF";
       tolerance_from_env(o.integrator, "BENCH_RTOL");
       // The Jacobian reuse distance (IntegratorOptions::jacobian_reuse_sigma), to compare.
-      if (const char* d = std::getenv("BENCH_JACOBIAN_REUSE"))
-        o.integrator.jacobian_reuse_sigma = std::atof(d);
+      o.integrator.jacobian_reuse_sigma =
+          number_from_env("BENCH_JACOBIAN_REUSE", o.integrator.jacobian_reuse_sigma);
       // BENCH_DIRECT=1: F by CVODES's per-step direct sensitivity solve
       // (plant::SensitivityMethod::kDirect) instead of the filters' matrix exponentials, to
       // compare.
