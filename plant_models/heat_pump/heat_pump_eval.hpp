@@ -609,14 +609,19 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   const S h_last_e = 1e3 * x[L_.h_evap.last()];
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;
+  // What each wall sensor reads: the wall plus the sensor's offset (0 unless it is a state).
   y[kCondWallTempIn] = wall_at_end(e.cond[0], prof_cond_, e.g_cond, e.cond_htc, t_out_k, e.p_cond,
-                                   e.dl.h, x[L_.tw_cond[0]]);
+                                   e.dl.h, x[L_.tw_cond[0]]) +
+                       factor(x, hp::kCondInOffset);
   y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
-                                    e.ll.p, h_last_c, x[L_.tw_cond.last()]);
+                                    e.ll.p, h_last_c, x[L_.tw_cond.last()]) +
+                        factor(x, hp::kCondOutOffset);
   y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
-                                   S(e.p_evap + e.dp_evap), e.ll.h, x[L_.tw_evap[0]]);
+                                   S(e.p_evap + e.dp_evap), e.ll.h, x[L_.tw_evap[0]]) +
+                       factor(x, hp::kEvapInOffset);
   y[kEvapWallTempOut] = wall_at_end(e.evap[N - 1], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
-                                    e.p_evap, h_last_e, x[L_.tw_evap.last()]);
+                                    e.p_evap, h_last_e, x[L_.tw_evap.last()]) +
+                        factor(x, hp::kEvapOutOffset);
   y[kZoneAirTemperature] = e.t_air;
   y[kSupplyAirTemperature] = e.t_air - capacity / (air_e.capacity_rate * static_cast<double>(N));
   y[kCompressorPower] = e.comp.w_elec;

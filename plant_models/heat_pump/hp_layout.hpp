@@ -20,7 +20,8 @@
 //   T_mass            [degC]   building mass (as zone_rc)
 //   Q_int             [W]      internal gains            (augmented, optional)
 //   leak_rate         [g/h]    refrigerant leak           (augmented, optional)
-//   factors           [1]      the others: valve_factor, comp_efficiency_factor
+//   factors           [1, K]   the others: valve_factor, comp_efficiency_factor, and the wall
+//                              sensors' offsets [K] (cond_in_wall_offset ... evap_out_wall_offset)
 // The low-side mass is charge - M_cond; the two pressures are algebraic (see heat_pump.hpp).
 // The states up to the first group of factors are everything the pressure solve reads: the
 // cells' masses depend on the enthalpies and, through the cell profiles' position weights, on
@@ -43,7 +44,8 @@ inline constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 
 // Uncertain parameters of the model that a filter can carry as states (random walks it
 // estimates, or "consider" states whose uncertainty it carries without estimating them), each a
-// factor on a nominal value except the void-fraction exponent. Parameters and state names:
+// factor on a nominal value except the void-fraction exponent and the wall sensors' offsets
+// (added to the wall temperature a sensor reads, in K). Parameters and state names:
 // hp_params.cpp (factor_table).
 enum Factor : std::size_t {
   kCondUa,        // fouling: outdoor-coil air-side UA (fouling, air flow)
@@ -55,6 +57,10 @@ enum Factor : std::size_t {
   kFriction,      // friction_factor: both coils' refrigerant pressure drops
   kValve,         // valve_factor: expansion-valve flow coefficient
   kCompWork,      // comp_efficiency_factor: compressor isentropic efficiency
+  kCondInOffset,  // cond_in_wall_offset: the condenser-inlet wall sensor's offset [K]
+  kCondOutOffset,  // cond_out_wall_offset
+  kEvapInOffset,   // evap_in_wall_offset
+  kEvapOutOffset,  // evap_out_wall_offset
   kNumFactors
 };
 // Factors before this one feed the pressure solve.

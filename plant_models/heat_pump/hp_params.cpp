@@ -198,25 +198,38 @@ const std::array<FactorInfo, kNumFactors>& factor_info() {
   // the filter's cross-covariances a twentieth of the charge's real dependence on the void
   // exponent; estimated, 0.7 sigma and MAPE 0.04 %. The friction factor stays considered.
   static const std::array<FactorInfo, kNumFactors> table{{
-      {"fouling", 0.2, 1.5, 0.15, 1e-5, false, false,
+      {"fouling", "1", 0.2, 1.5, 0.15, 1e-5, false, false,
        "outdoor-coil air-side UA factor, 1 = clean (fouling, air flow)"},
-      {"evap_ua_factor", 0.3, 2.0, 0.15, 1e-5, false, false,
+      {"evap_ua_factor", "1", 0.3, 2.0, 0.15, 1e-5, false, false,
        "indoor-coil air-side UA factor (fouling, filter, air flow)"},
-      {"comp_flow_factor", 0.6, 1.4, 0.08, 1e-6, false, false,
+      {"comp_flow_factor", "1", 0.6, 1.4, 0.08, 1e-6, false, false,
        "factor on the compressor's volumetric efficiency"},
-      {"void_exponent", 0.4, 1.0, 0.08, 1e-3, false, false,
+      {"void_exponent", "1", 0.4, 1.0, 0.08, 1e-3, false, false,
        "exponent e of the two-phase slip, void fraction x / (x + (1 - x)(rho_v/rho_l)^e): "
        "2/3 Zivi, 1 homogeneous"},
-      {"cond_htc_factor", 0.3, 3.0, 0.3, 1e-3, false, false,
+      {"cond_htc_factor", "1", 0.3, 3.0, 0.3, 1e-3, false, false,
        "factor on the condensing heat transfer coefficient"},
-      {"evap_htc_factor", 0.3, 3.0, 0.3, 1e-3, false, false,
+      {"evap_htc_factor", "1", 0.3, 3.0, 0.3, 1e-3, false, false,
        "factor on the boiling heat transfer coefficient"},
-      {"friction_factor", 0.3, 3.0, 0.25, 0.0, true, false,
+      {"friction_factor", "1", 0.3, 3.0, 0.25, 0.0, true, false,
        "factor on both coils' refrigerant pressure drops"},
-      {"valve_factor", 0.3, 2.0, 0.15, 1e-5, false, false,
+      {"valve_factor", "1", 0.3, 2.0, 0.15, 1e-5, false, false,
        "factor on the expansion valve's flow coefficient"},
-      {"comp_efficiency_factor", 0.6, 1.4, 0.08, 1e-6, false, false,
+      {"comp_efficiency_factor", "1", 0.6, 1.4, 0.08, 1e-6, false, false,
        "factor on the compressor's isentropic efficiency"},
+      // A wall sensor clamped on a tube reads the wall plus an offset of its own (its accuracy
+      // class, the clamp's contact, the insulation around it), constant in the unit's life but
+      // unknown: 0.5 K one sigma. Carried as a state, a biased sensor is fitted instead of
+      // gated out, and what only it measures (the superheat at the evaporator's outlet) is
+      // published with that uncertainty. Off by default (README, "Sensor offsets").
+      {"cond_in_wall_offset", "K", -3.0, 3.0, 0.5, 1e-5, false, false,
+       "offset of the condenser-inlet wall temperature sensor (reading - wall)"},
+      {"cond_out_wall_offset", "K", -3.0, 3.0, 0.5, 1e-5, false, false,
+       "offset of the condenser-outlet wall temperature sensor (reading - wall)"},
+      {"evap_in_wall_offset", "K", -3.0, 3.0, 0.5, 1e-5, false, false,
+       "offset of the evaporator-inlet wall temperature sensor (reading - wall)"},
+      {"evap_out_wall_offset", "K", -3.0, 3.0, 0.5, 1e-5, false, false,
+       "offset of the evaporator-outlet wall temperature sensor (reading - wall)"},
   }};
   return table;
 }
@@ -236,7 +249,7 @@ std::vector<ParameterInfo> parameter_info() {
   const Params d{};
   for (std::size_t k = 0; k < kNumFactors; ++k) {
     const FactorInfo& f = factor_info()[k];
-    out.push_back({f.name, "1", d.factor[k], f.min, f.max, false,
+    out.push_back({f.name, f.unit, d.factor[k], f.min, f.max, false,
                    std::string(f.description) + " (when not a state: its value)"});
   }
   for (ParameterInfo z : ZoneRc::parameter_info()) {

@@ -1,5 +1,6 @@
 // Evidence for the R32 heat-pump model: exact derivatives, conservation, the energy balance,
 // a realistic nominal point, and step responses with the right signs and time scales.
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
@@ -143,6 +144,44 @@ TEST_CASE("with every uncertain parameter a state, the Jacobians are exact too",
     INFO(s.name);
     const bool zone = s.name == "T_air" || s.name == "T_mass" || s.name == "Q_int";
     CHECK(s.excited_by == (zone ? -1 : static_cast<int>(kCompressorSpeed)));
+  }
+}
+
+// A wall sensor's offset (augment_<wall>_wall_offset) is what that sensor reads beyond the wall:
+// it moves its own reading by exactly its value and nothing else, neither another output nor
+// the dynamics.
+TEST_CASE("a wall sensor's offset state adds to its own reading and to nothing else",
+          "[heat_pump]") {
+  plant::ParameterMap p;
+  const std::array<std::pair<const char*, Output>, 4> walls{
+      {{"cond_in_wall_offset", kCondWallTempIn},
+       {"cond_out_wall_offset", kCondWallTempOut},
+       {"evap_in_wall_offset", kEvapWallTempIn},
+       {"evap_out_wall_offset", kEvapWallTempOut}}};
+  for (const auto& [name, output] : walls)
+    p[std::string("augment_") + name] = 1;
+  const HeatPumpRig rig(p);
+  const auto u = nominal_inputs();
+  auto x = rig.start();
+  rig.run(x, u, 600.0);
+  const auto& layout = rig.model->layout();
+  const std::size_t n = x.size();
+  std::vector<double> f0(n), f1(n);
+  REQUIRE(rig.model->rhs(x, u, f0) == plant::kModelOk);
+  const auto y0 = rig.outputs(x, u);
+  for (const auto& [name, output] : walls) {
+    INFO(name);
+    const std::size_t i = *layout.state(name);
+    CHECK(x[i] == 0.0);  // nominal: the sensor reads the wall
+    auto xb = x;
+    xb[i] = 0.7;
+    const auto y1 = rig.outputs(xb, u);
+    for (std::size_t o = 0; o < y0.size(); ++o) {
+      INFO("output " << layout.outputs[o].name);
+      CHECK(y1[o] == Approx(y0[o] + (o == output ? 0.7 : 0.0)).epsilon(1e-12).margin(1e-12));
+    }
+    REQUIRE(rig.model->rhs(xb, u, f1) == plant::kModelOk);
+    CHECK(f1 == f0);
   }
 }
 
