@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "config/config.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/noise_adapter.hpp"
 #include "plant_models/catalog.hpp"
@@ -52,8 +53,9 @@ struct Measured {
 };
 inline double filter_noise_factor = 1.0;
 // The daemon's estimator.adaptive_noise_min / _max (daemon/estimation/noise_adapter.hpp), over
-// its default consistency window (3600 s); both 1: off (the daemon's default).
-inline double adaptive_noise_min = 1.0, adaptive_noise_max = 1.0;
+// its default consistency window (3600 s), at the daemon's defaults; both 1: off.
+inline double adaptive_noise_min = config::EstimatorConfig{}.adaptive_noise_min,
+              adaptive_noise_max = config::EstimatorConfig{}.adaptive_noise_max;
 // The measurements a filter is offered: the truth's, their variances adapted as the daemon adapts
 // them when adaptive_noise_min/max say so (UnitPipeline::build_measurements), else as told.
 class AdaptedMeasurements {
