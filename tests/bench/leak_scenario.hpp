@@ -75,6 +75,7 @@ struct LeakRunOptions {
   double period_s = 5.0;
   double leak_g_per_h = 0.0;  // truth leak from leak_start_s on
   double leak_start_s = 0.0;
+  double leak_duration_s = 0.0;  // > 0: the leak stops after this long (a sudden loss)
   bool stop_at_leak = false;  // end the run when LEAK is raised after the leak started
   std::uint64_t seed = 1;     // the scenario's (internal gains); sensor noise has its own
   std::uint64_t noise_seed = 7;
@@ -173,6 +174,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   so.seed = o.seed;
   so.leak_g_per_h = o.leak_g_per_h;
   so.leak_start_s = o.leak_g_per_h > 0.0 ? o.leak_start_s : 1e30;
+  if (o.leak_duration_s > 0.0) so.leak_end_s = so.leak_start_s + o.leak_duration_s;
   HeatPumpTruth truth(so, o.noise_seed);
   truth.failure_dump = o.failure_dump;
   std::unique_ptr<plant::ContinuousModel> model =

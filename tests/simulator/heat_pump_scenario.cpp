@@ -57,7 +57,8 @@ class HeatPumpScenario final : public Scenario {
       gains_ = std::uniform_real_distribution<double>(200.0, 1200.0)(rng_);
     }
     if (L.q_int != kNone) x[L.q_int] = gains_;
-    if (L.leak != kNone) x[L.leak] = t >= o_.leak_start_s ? o_.leak_g_per_h : 0.0;
+    if (L.leak != kNone)
+      x[L.leak] = t >= o_.leak_start_s && t < o_.leak_end_s ? o_.leak_g_per_h : 0.0;
 
     if (o_.commissioning) {
       const auto& point = kCommissioningPoints[static_cast<std::size_t>(t / kCommissioningHoldS) %
