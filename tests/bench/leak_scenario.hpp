@@ -76,8 +76,8 @@ struct LeakRunOptions {
   double leak_g_per_h = 0.0;  // truth leak from leak_start_s on
   double leak_start_s = 0.0;
   double leak_duration_s = 0.0;  // > 0: the leak stops after this long (a sudden loss)
-  bool stop_at_leak = false;  // end the run when LEAK is raised after the leak started
-  std::uint64_t seed = 1;     // the scenario's (internal gains); sensor noise has its own
+  bool stop_at_leak = false;     // end the run when LEAK is raised after the leak started
+  std::uint64_t seed = 1;        // the scenario's (internal gains); sensor noise has its own
   std::uint64_t noise_seed = 7;
   Operation operation;
   est::LeakDetectorOptions detector;
