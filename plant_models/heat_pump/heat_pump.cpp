@@ -323,8 +323,8 @@ ModelLayout HeatPumpR32::make_layout() const {
   for (std::size_t f = 0; f < hp::kNumFactors; ++f) {
     if (L_.factor[f] == hp::kNone) continue;
     const hp::FactorInfo& info = hp::factor_info()[f];
-    set(L_.factor[f], info.name, info.unit, info.min, info.max, info.initial_std, info.process_noise,
-        1e-9, true, info.description);
+    set(L_.factor[f], info.name, info.unit, info.min, info.max, info.initial_std,
+        info.process_noise, 1e-9, true, info.description);
     l.states[L_.factor[f]].consider = info.consider || info.calibrate;
     l.states[L_.factor[f]].calibrate = info.calibrate;
     // Every factor describes the running cycle: with the compressor stopped no sensor sees a

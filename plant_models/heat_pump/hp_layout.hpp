@@ -48,16 +48,16 @@ inline constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 // (added to the wall temperature a sensor reads, in K). Parameters and state names:
 // hp_params.cpp (factor_table).
 enum Factor : std::size_t {
-  kCondUa,        // fouling: outdoor-coil air-side UA (fouling, air flow)
-  kEvapUa,        // evap_ua_factor: indoor-coil air-side UA
-  kCompFlow,      // comp_flow_factor: compressor volumetric efficiency
-  kVoidExponent,  // void_exponent: slip-ratio void fraction (rho_v/rho_l)^e, Zivi 2/3
-  kCondHtc,       // cond_htc_factor: condensing heat transfer coefficient
-  kEvapHtc,       // evap_htc_factor: boiling heat transfer coefficient
-  kFriction,      // friction_factor: both coils' refrigerant pressure drops
-  kValve,         // valve_factor: expansion-valve flow coefficient
-  kCompWork,      // comp_efficiency_factor: compressor isentropic efficiency
-  kCondInOffset,  // cond_in_wall_offset: the condenser-inlet wall sensor's offset [K]
+  kCondUa,         // fouling: outdoor-coil air-side UA (fouling, air flow)
+  kEvapUa,         // evap_ua_factor: indoor-coil air-side UA
+  kCompFlow,       // comp_flow_factor: compressor volumetric efficiency
+  kVoidExponent,   // void_exponent: slip-ratio void fraction (rho_v/rho_l)^e, Zivi 2/3
+  kCondHtc,        // cond_htc_factor: condensing heat transfer coefficient
+  kEvapHtc,        // evap_htc_factor: boiling heat transfer coefficient
+  kFriction,       // friction_factor: both coils' refrigerant pressure drops
+  kValve,          // valve_factor: expansion-valve flow coefficient
+  kCompWork,       // comp_efficiency_factor: compressor isentropic efficiency
+  kCondInOffset,   // cond_in_wall_offset: the condenser-inlet wall sensor's offset [K]
   kCondOutOffset,  // cond_out_wall_offset
   kEvapInOffset,   // evap_in_wall_offset
   kEvapOutOffset,  // evap_out_wall_offset

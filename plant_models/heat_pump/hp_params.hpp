@@ -71,8 +71,8 @@ struct Params {
   double leak_rate = 0.0;         // g/h
   // The factors' values (their states' initial values when augmented): all 1 but the
   // void-fraction exponent (Zivi's 2/3) and the sensor offsets (0 K).
-  std::array<double, kNumFactors> factor{1.0, 1.0, 1.0, 2.0 / 3.0, 1.0, 1.0,
-                                         1.0, 1.0, 1.0, 0.0,       0.0, 0.0, 0.0};
+  std::array<double, kNumFactors> factor{1.0, 1.0, 1.0, 2.0 / 3.0, 1.0, 1.0, 1.0,
+                                         1.0, 1.0, 0.0, 0.0,       0.0, 0.0};
 
   ZoneRc::Params zone{};  // hp_fraction_air is 1: the indoor unit blows into the air node
 };

@@ -17,7 +17,7 @@ struct ScenarioOptions {
   double leak_g_per_h = 0.0;  // refrigerant leak rate from leak_start_s on (heat pump)
   double leak_start_s = 0.0;
   double leak_end_s = 1e30;  // and until then (a sudden loss: a burst hose, a service valve)
-  double charge_kg = 0.0;  // truth refrigerant charge (heat pump); 0: the nameplate charge
+  double charge_kg = 0.0;    // truth refrigerant charge (heat pump); 0: the nameplate charge
   // Heat pump: a commissioning run instead of the day's control loops: the engineer holds six
   // operating points (speed, valve opening, fans) for 45 min each, in turn.
   bool commissioning = false;
