@@ -131,11 +131,8 @@ struct EstimatorConfig {
   // Bounded covariance matching of each measured point's noise over that window
   // (daemon/estimation/noise_adapter.hpp): the filter is told measurement_noise^2 times a factor
   // in [adaptive_noise_min, adaptive_noise_max] that the innovations estimate. Both 1: off.
-  // Default 1:9, inflation only (README, "Adaptive measurement noise": on the heat pump's three
-  // leak scenarios no alarm in 7 normal days, both leaks found as soon or sooner, every heat-flow
-  // and charge error as low or lower, and a biased sensor gated 3.5 % of cycles instead of 21 %).
   double adaptive_noise_min = 1.0;  // (0, 1]
-  double adaptive_noise_max = 9.0;  // [1, 100]
+  double adaptive_noise_max = 1.0;  // [1, 100]
   LeakDetectionConfig leak_detection;
   // Per state, in the state's unit; a state not listed takes the model's StateInfo default
   // (process_noise, initial, initial_std). Names are states of the unit's model.
