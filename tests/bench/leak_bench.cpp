@@ -1,4 +1,4 @@
-// The leak acceptance benchmark (issue 5, item 4): scenarios (a)-(e) in process, as fast as the
+// The leak acceptance benchmark (issue 5, item 4): scenarios (a)-(f) in process, as fast as the
 // filter runs, printed as one table. The scenarios, the truth and the filter are
 // tests/bench/leak_scenario.hpp; leak_acceptance_test asserts the same properties in short form.
 //
