@@ -17,8 +17,13 @@
 // clipped at clip * S (a gross outlier moves R by a bounded step, a persistent misfit by many);
 // points reported `faulty` (rejected max_consecutive_rejections times in a row) are left out: a
 // transmitter gone wrong is a fault for the lost-track and stuck checks to report, not noise to
-// learn. Adapting hides nothing: the consistency monitor judges the innovations against the
-// told noise (told_test_ratio), so a point that needs its noise inflated still shows HIGH.
+// learn. Nor is a filter that has lost track (most points gated out, est::TrackMonitor): its
+// innovations measure its own error, not the sensors'. A loss of track is declared only after
+// some updates, so each update's samples are held `hold_updates` updates before they count, and
+// the caller discards what is held (discard_held) when it finds the track lost, the covariance
+// reset or the filter restarted, and leaves those updates out. Adapting hides nothing: the
+// consistency monitor judges the innovations against the told noise (told_test_ratio), so a point
+// that needs its noise inflated still shows HIGH.
 //
 // Pure library: no I/O, no clock. The constructor allocates; the rest never allocates or throws.
 #pragma once
@@ -37,6 +42,7 @@ struct NoiseAdapterOptions {
   double min_factor = 1.0;  // (0, 1]
   double max_factor = 1.0;  // [1, ...); min = max = 1: no adaptation
   double clip = 10.83;      // a rejected sample's nu^2 counts at most clip * S (the filter's gate)
+  std::size_t hold_updates = 0;  // an update's samples count this many updates later
 };
 
 class NoiseAdapter {
@@ -52,6 +58,8 @@ class NoiseAdapter {
   // variances. Updates the factors.
   void observe(std::span<const Measurement> z, std::span<const MeasurementReport> reports,
                std::span<const double> told);
+  // Forgets the samples still held: the updates they came from are not to be learnt from.
+  void discard_held();
 
   // A report's test ratio against the told noise instead of the adapted one.
   static double told_test_ratio(const MeasurementReport& r, double used, double told);
@@ -62,6 +70,15 @@ class NoiseAdapter {
   std::vector<double> weight_, weighted_r_;  // forgotten sums of w and of w (nu^2 - H P- H')
   std::vector<double> factor_;
   std::vector<std::size_t> samples_;
+  // The held samples, a ring of hold_updates updates of one entry per point: w and
+  // w (nu^2 - H P- H'), w < 0 for a point that gave no sample.
+  struct Held {
+    double w, wr;
+  };
+  std::vector<Held> held_;
+  std::size_t held_updates_ = 0, held_next_ = 0;  // filled slots; the slot the next update takes
+
+  void learn(std::size_t i, double told, Held sample);
 };
 
 }  // namespace hvac_twin::est

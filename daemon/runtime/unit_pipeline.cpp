@@ -341,6 +341,7 @@ void UnitPipeline::start_from_measurements(double model_time_s, const FilterSnap
     std::copy(x0_.begin(), x0_.end(), guess_x_.begin());
   }
   filter_->reset(guess_x_, std0_);
+  if (noise_) noise_->discard_held();
   failed_predictions_ = 0;
   phases_from_s_ = model_time_s;
   phases_ = phases_cold_.get();
@@ -462,8 +463,14 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
     if (st == est::StepStatus::kNumericalReset) flags |= dds::kFlagNumericalReset;
     const bool covariance_reset = filter_->counters().covariance_resets != resets_before;
     if (covariance_reset) flags |= dds::kFlagNumericalReset;
-    step_track(track_.observe(reports_, covariance_reset), flags);
-    if (noise_) noise_->observe(z_, reports_, told_variance_);
+    const est::TrackStep track = track_.observe(reports_, covariance_reset);
+    step_track(track, flags);
+    // A lost filter's innovations measure its own error, not the sensors' noise: neither this
+    // update nor the ones held before it (the loss is declared some updates late) are learnt.
+    if (noise_ && (track.lost || covariance_reset || track.restart_due))
+      noise_->discard_held();
+    else if (noise_)
+      noise_->observe(z_, reports_, told_variance_);
     for (std::size_t i = 0; i < reports_.size(); ++i)
       if (reports_[i].fused) fused_points_ |= std::uint64_t{1} << i;
     if (!filter_->active_constraints().empty()) flags |= dds::kFlagConstraintActive;

@@ -50,7 +50,8 @@ void UnitPipeline::bind_consistency() {
                                                    .min_samples = o.min_samples,
                                                    .min_factor = e.adaptive_noise_min,
                                                    .max_factor = e.adaptive_noise_max,
-                                                   .clip = e.nis_gate});
+                                                   .clip = e.nis_gate,
+                                                   .hold_updates = est::kLostAfterUpdates});
     for (const auto& b : measured_)
       told_variance_.push_back(b.variance);
     told_reports_.resize(measured_.size());

@@ -154,8 +154,9 @@ struct FilterRun {
   std::vector<std::size_t> shared;  // indices of shared_states() in the filter's model
   std::vector<std::size_t> truth_shared;   // ... and in the truth's
   std::vector<double> last_y, last_sigma;  // the outputs after the last step, with their sigma
-  std::vector<est::MeasurementReport> last_reports;  // the last update's, when scored
-  std::optional<AdaptedMeasurements> offered;        // made at the first step (its period)
+  std::vector<est::MeasurementReport> last_reports;    // the last update's, when scored
+  std::optional<AdaptedMeasurements> offered;          // made at the first step (its period)
+  est::TrackMonitor track{est::kLostAfterUpdates, 0};  // what the adapter leaves out
 
   FilterRun(const std::string& filter_name, const plant::ContinuousModel& truth_model,
             std::size_t members, std::size_t threads)
@@ -234,10 +235,12 @@ struct FilterRun {
       const auto t0 = Clock::now();
       if (filter->predict(u, period) != est::StepStatus::kOk) ++failures;
       const double tp = ms_since(t0);
+      const auto resets_before = filter->counters().covariance_resets;
       const auto t1 = Clock::now();
       if (filter->update(z, u, reports) != est::StepStatus::kOk) ++failures;
       const double tu = ms_since(t1);
-      offered->observe(reports);
+      const bool covariance_reset = filter->counters().covariance_resets != resets_before;
+      offered->observe(reports, track.observe(reports, covariance_reset).lost || covariance_reset);
       predict_ms.push_back(tp);
       update_ms.push_back(tu);
       step_ms.push_back(tp + tu);

@@ -27,6 +27,7 @@
 #include "config/config.hpp"
 #include "daemon/estimation/estimator.hpp"
 #include "daemon/estimation/noise_adapter.hpp"
+#include "daemon/estimation/track_monitor.hpp"
 #include "plant_models/catalog.hpp"
 #include "plant_models/core/integrator.hpp"
 #include "plant_models/core/settling.hpp"
@@ -66,7 +67,8 @@ class AdaptedMeasurements {
           .window_cycles = static_cast<std::size_t>(std::llround(3600.0 / period_s)),
           .min_samples = 30,
           .min_factor = adaptive_noise_min,
-          .max_factor = adaptive_noise_max};
+          .max_factor = adaptive_noise_max,
+          .hold_updates = est::kLostAfterUpdates};
   }
   // Before the update: the truth's measurements with the variances to offer.
   const std::vector<est::Measurement>& offer(const std::vector<est::Measurement>& told) {
@@ -81,9 +83,11 @@ class AdaptedMeasurements {
       z_[i].variance = adapter_->variance(i, told_[i]);
     return z_;
   }
-  // After the update: its reports.
-  void observe(const std::vector<est::MeasurementReport>& reports) {
-    if (adapter_) adapter_->observe(z_, reports, told_);
+  // After the update: its reports, and whether the daemon would discard them (the track lost,
+  // the covariance reset or the filter restarted; UnitPipeline::run_cycle).
+  void observe(const std::vector<est::MeasurementReport>& reports, bool discard) {
+    if (adapter_ && discard) adapter_->discard_held();
+    if (adapter_ && !discard) adapter_->observe(z_, reports, told_);
   }
 
  private:

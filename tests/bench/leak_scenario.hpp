@@ -279,10 +279,10 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
     }
     const auto resets_before = ekf.counters().covariance_resets;
     ok = ekf.update(z, u, reports) == est::StepStatus::kOk && ok;
-    offered.observe(reports);
     // Lost track, as the daemon judges it; its restart here at the next step.
-    const est::TrackStep track_step =
-        track.observe(reports, ekf.counters().covariance_resets != resets_before);
+    const bool covariance_reset = ekf.counters().covariance_resets != resets_before;
+    const est::TrackStep track_step = track.observe(reports, covariance_reset);
+    offered.observe(reports, track_step.lost || covariance_reset || track_step.restart_due);
     r.lost_updates += track_step.lost ? 1 : 0;
     restart_lost = track_step.restart_due;
     ok = ekf.output_estimates(u, y, sigma, own_sigma) == plant::kModelOk && ok;
