@@ -200,12 +200,15 @@ TEST_CASE("the golden recording smoothed: one piece, its end the filter's", "[re
   }
   CHECK(moved > 100);  // and it did change the estimates
   // Smoothing uses more data: its sigma is mostly below the filter's (measured: median 0.95,
-  // 12 of 143 cycles above). Not always: the EKF's posterior is not always below its prior (the
-  // constrained update's truncation, covariance floors), and the charge's sigma is taken through
-  // its Jacobian at the smoothed state.
+  // 12 of 143 cycles above, with adaptive noise off; with the default 1:9 since stop 46, which
+  // tells the filter the noisier points are noisier, so each later reading says less, median
+  // 0.98). Not always: the EKF's posterior is not always below its prior (the constrained
+  // update's truncation, covariance floors), and the charge's sigma is taken through its
+  // Jacobian at the smoothed state.
   std::sort(ratios.begin(), ratios.end());
   REQUIRE(ratios.size() == 149);
-  CHECK(ratios[ratios.size() / 2] < 0.98);
+  INFO("smoothed / filter sigma of the charge: median " << ratios[ratios.size() / 2]);
+  CHECK(ratios[ratios.size() / 2] < 0.99);
   CHECK(ratios.back() < 1.05);
 }
 

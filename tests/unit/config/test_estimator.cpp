@@ -126,13 +126,14 @@ TEST_CASE("estimator.consistency_window_s: default, value, range and the window 
                        {"consistency_window_s / period_s", "360000 cycles"});
 }
 
-TEST_CASE("estimator.adaptive_noise_min/max: off by default, values, ranges", "[config]") {
+TEST_CASE("estimator.adaptive_noise_min/max: inflation only by default, values, ranges",
+          "[config]") {
   auto j = demo_json();
   {
     const auto r = load_json(j);
     require_ok(r);
     CHECK(r.config->units[0].estimator.adaptive_noise_min == 1.0);
-    CHECK(r.config->units[0].estimator.adaptive_noise_max == 1.0);
+    CHECK(r.config->units[0].estimator.adaptive_noise_max == 9.0);
   }
   auto& est = j["units"][0]["estimator"];
   est["adaptive_noise_min"] = 0.25;
