@@ -142,6 +142,16 @@ TEST_CASE("the EnKF on the heat pump gives the same result on 1 and on 2 threads
     q.push_back(s.process_noise);
     s0.push_back(s.initial_std);
   }
+  // The settled truth's two pressures, offered every update of both runs.
+  const auto y = rig.outputs(truth, u);
+  const std::vector<est::Measurement> z{{.output = plant::hp::kSuctionPressure,
+                                         .value = y[plant::hp::kSuctionPressure],
+                                         .variance = 1e8,
+                                         .available = true},
+                                        {.output = plant::hp::kDischargePressure,
+                                         .value = y[plant::hp::kDischargePressure],
+                                         .variance = 1e8,
+                                         .available = true}};
   const auto run = [&](std::size_t threads) {
     est::EnkfOptions o;
     o.members = 16;
@@ -149,17 +159,8 @@ TEST_CASE("the EnKF on the heat pump gives the same result on 1 and on 2 threads
     o.threads = threads;
     est::ConstrainedEnkf enkf(*rig.model, q, 2, o);
     enkf.reset(truth, s0);
-    const auto y = rig.outputs(truth, u);
     for (int k = 0; k < 6; ++k) {
       REQUIRE(enkf.predict(u, 5.0) == est::StepStatus::kOk);
-      const std::vector<est::Measurement> z{{.output = plant::hp::kSuctionPressure,
-                                             .value = y[plant::hp::kSuctionPressure],
-                                             .variance = 1e8,
-                                             .available = true},
-                                            {.output = plant::hp::kDischargePressure,
-                                             .value = y[plant::hp::kDischargePressure],
-                                             .variance = 1e8,
-                                             .available = true}};
       std::vector<est::MeasurementReport> reports(2);
       REQUIRE(enkf.update(z, u, reports) == est::StepStatus::kOk);
     }
