@@ -134,7 +134,7 @@ struct EstimatorConfig {
   // Not learnt while the filter has lost track. Default 1:9, inflation only (README, "Adaptive
   // measurement noise": no alarm in 7 normal days, the 10 %/day leak found sooner and the
   // 2 %/day one an hour later (within its aim), the heat-flow and charge errors lower, and a
-  // biased sensor gated in 3.3 % of cycles instead of 22 %).
+  // biased sensor gated in 3.2 % of cycles instead of 22.5 %).
   double adaptive_noise_min = 1.0;  // (0, 1]
   double adaptive_noise_max = 9.0;  // [1, 100]
   LeakDetectionConfig leak_detection;
