@@ -107,3 +107,50 @@ TEST_CASE("balancing takes a badly scaled matrix's squarings down to those of it
     for (Eigen::Index j = 0; j < n; ++j)
       CHECK(E(i, j) == Approx(exact(i, j)).epsilon(1e-12).margin(1e-300));
 }
+
+TEST_CASE("each Padé degree is taken where its d_k allow it, and is as accurate as degree 13",
+          "[integrator][expm]") {
+  // A stable 64 x 64 matrix scaled so that its powers' norms fall in each degree's range
+  // (Higham's theta_3, theta_5, theta_7, theta_9, then degree 13 without and with squarings).
+  const Eigen::Index n = 64;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> N01;
+  Eigen::MatrixXd B(n, n), E(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      B(i, j) = N01(rng) / std::sqrt(static_cast<double>(n));
+  B -= Eigen::MatrixXd::Identity(n, n);
+  B /= B.cwiseAbs().colwise().sum().maxCoeff();  // 1-norm 1
+  MatrixExponential expm(n);
+  struct Case {
+    double norm;
+    int degree;
+  };
+  for (const Case c : {Case{0.005, 3}, Case{0.1, 5}, Case{0.5, 7}, Case{1.2, 9}, Case{3.0, 13},
+                       Case{40.0, 13}}) {
+    const Eigen::MatrixXd A = c.norm * B;
+    REQUIRE(expm.compute(A, E));
+    const Eigen::MatrixXd reference = A.exp();
+    INFO("1-norm " << c.norm << ": degree " << expm.last_degree() << ", squarings "
+                   << expm.last_squarings() << ", error " << relative(E, reference));
+    CHECK(expm.last_degree() == c.degree);
+    CHECK(relative(E, reference) < 1e-13);
+  }
+}
+
+TEST_CASE("a non-normal matrix is scaled by its powers' norms, not by its own norm",
+          "[integrator][expm]") {
+  // Al-Mohy and Higham's motivating case: [[a, b], [0, c]] with |b| >> |a|, |c|. Its 1-norm
+  // (1e6) would ask for 18 squarings; ||A^k||^(1/k) falls towards max(|a|, |c|) as k grows,
+  // and the exponential is in closed form. Balancing leaves it alone (its first column has no
+  // off-diagonal entry).
+  const double a = -1.0, b = 1e6, c = -2.0;
+  Eigen::MatrixXd A(2, 2), E(2, 2), exact(2, 2);
+  A << a, b, 0.0, c;
+  exact << std::exp(a), b * (std::exp(a) - std::exp(c)) / (a - c), 0.0, std::exp(c);
+  MatrixExponential expm(2);
+  REQUIRE(expm.compute(A, E));
+  INFO("squarings " << expm.last_squarings() << ", error " << relative(E, exact));
+  CHECK(expm.last_squarings() <= 8);
+  CHECK(relative(E, exact) < 1e-13);
+}
