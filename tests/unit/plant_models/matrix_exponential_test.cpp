@@ -15,6 +15,19 @@ double relative(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).norm() / b.norm();
 }
 
+// A random n x n matrix with N(0, 1/n) entries, minus shift times the identity (decaying, as a
+// stable model's Jacobian).
+Eigen::MatrixXd random_decaying(Eigen::Index n, unsigned seed, double shift) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> N01;
+  Eigen::MatrixXd A(n, n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (Eigen::Index j = 0; j < n; ++j)
+      A(i, j) = N01(rng) / std::sqrt(static_cast<double>(n));
+  A -= shift * Eigen::MatrixXd::Identity(n, n);
+  return A;
+}
+
 }  // namespace
 
 TEST_CASE("the matrix exponential equals closed forms", "[integrator][expm]") {
@@ -62,16 +75,11 @@ TEST_CASE("the matrix exponential equals closed forms", "[integrator][expm]") {
 TEST_CASE("the matrix exponential agrees with Eigen's at the heat pump's size and refuses NaN",
           "[integrator][expm]") {
   const Eigen::Index n = 64;
-  std::mt19937 rng(11);
-  std::normal_distribution<double> N01;
   Eigen::MatrixXd A(n, n), E(n, n);
   MatrixExponential expm(n);
+  unsigned seed = 11;
   for (const double scale : {1e-3, 1.0, 30.0}) {
-    for (Eigen::Index i = 0; i < n; ++i)
-      for (Eigen::Index j = 0; j < n; ++j)
-        A(i, j) = N01(rng) / std::sqrt(static_cast<double>(n));
-    A -= 2.0 * Eigen::MatrixXd::Identity(n, n);  // decaying, as a stable model's Jacobian
-    A *= scale;
+    A = scale * random_decaying(n, seed++, 2.0);
     const Eigen::MatrixXd reference = A.exp();
     REQUIRE(expm.compute(A, E));
     INFO("scale " << scale << ", squarings " << expm.last_squarings());
@@ -113,13 +121,7 @@ TEST_CASE("each Padé degree is taken where its d_k allow it, and is as accurate
   // A stable 64 x 64 matrix scaled so that its powers' norms fall in each degree's range
   // (Higham's theta_3, theta_5, theta_7, theta_9, then degree 13 without and with squarings).
   const Eigen::Index n = 64;
-  std::mt19937 rng(5);
-  std::normal_distribution<double> N01;
-  Eigen::MatrixXd B(n, n), E(n, n);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (Eigen::Index j = 0; j < n; ++j)
-      B(i, j) = N01(rng) / std::sqrt(static_cast<double>(n));
-  B -= Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd B = random_decaying(n, 5, 1.0), E(n, n);
   B /= B.cwiseAbs().colwise().sum().maxCoeff();  // 1-norm 1
   MatrixExponential expm(n);
   struct Case {
