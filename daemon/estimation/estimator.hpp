@@ -44,19 +44,26 @@ inline constexpr long kMaxPredictSteps = 1000;
 // that. The plain EKF recovers from that glitch more slowly with an exact F
 // (constraints_heat_pump_test says how much); the direct solve's 0.1 error had hidden it.
 //
-// One model Jacobian serves the steps' sensitivity solves while no state has moved by more than
-// 0.05 of its initial sigma (0.5 kJ/kg on an enthalpy, 0.1 K on a wall) from where it was
-// evaluated. Measured on the heat pump at 12 cells, reuse distance 0 / 0.01 / 0.02 / 0.05 / 0.1:
-//  - race_bench --short --jacobian-reuse D: Jacobians per period (median) 41 / 12 / 7 / 4 / -
-//    (before the sensitivity right-hand sides shared the reuse; with them, 0.05 takes 2),
-//    worst relative error of the outputs' predicted sigma against a tight reference 1e-3 / 2e-3
-//    / 1e-2 / 2e-2 / - (F's own relative tolerance is 0.1);
-//  - estimation_bench --short --filters cekf (BENCH_JACOBIAN_REUSE=D), whose updates keep the
-//    state moving: Jacobians per period (median, nominal truth) 43 / 35 / - / 25 / 16; with
-//    --truth all the step 6.7x / - / - / 4.9x / 4.4x the plain simulation, and every printed
-//    figure the same to +-0.05 % of the charge up to 0.05, while 0.1 moved the mismatched
-//    truth's (h_vi MAPE 0.088 -> 0.123 %, charge +3.29 -> +2.32 %).
-inline constexpr double kFilterJacobianReuseSigma = 0.05;
+// One model Jacobian serves CVODES's Newton matrix and F's segments while no state has moved by
+// more than 0.1 of its initial sigma (1 kJ/kg on an enthalpy, 0.2 K on a wall) from where it
+// was evaluated, and is kept across periods while the inputs stay as close (IntegratorOptions).
+// With F as matrix exponentials each segment takes the mean of the Jacobians at its two ends (the
+// trapezoidal rule), so a longer segment costs F little. Measured at stop 48 on the heat pump
+// at 12 cells, 0.05 (the value from stop 43 to 47) / 0.1 / 0.15:
+//  - race_bench --short --jacobian-reuse D (5 s): the constrained-EKF step 4.63 / 3.46 / 3.20 ms
+//    median, p99 34 / 32 / 26 ms; F's worst error against the tight reference over the 19
+//    checked periods 6e-3 / 1e-2 / 2e-2 (Frobenius), the outputs' predicted sigma 1e-2 / 4e-2 /
+//    2e-1 relative (F's own relative tolerance is 0.1: 0.15 oversteps it);
+//  - the same at --period 1 --every 120: the step 2.46 / 1.81 / 1.82 ms median, p99 12.2 / 9.4 /
+//    7.6 ms; the outputs' sigma 1e-2 / 4e-2 / 3e-2;
+//  - estimation_bench --short --truth all --filters cekf (BENCH_JACOBIAN_REUSE=D, 5 s): the step
+//    19.7 / 15.4 / 13.1 ms median; the charge +3.58 / +3.63 / +3.63 % (nominal), +3.45 / +3.35 /
+//    +3.50 % (mismatched), +2.43 / +2.58 / +2.45 % (biased sensor); h_vi MAPE 0.067 / 0.061 /
+//    0.063 %, 0.072 / 0.081 / 0.086 %, 0.078 / 0.075 / 0.073 %; NIS within 0.01, NEES within
+//    0.3, the gate shares within 0.3 points, the shares within 2 sigma within 2 points.
+// (Before F was made of exponentials, with kDirect's per-step solves on a lagged Jacobian, 0.1
+// had moved the mismatched truth's h_vi MAPE 0.088 -> 0.123 %; that is why 0.05 was chosen.)
+inline constexpr double kFilterJacobianReuseSigma = 0.1;
 //
 // The state at a relative tolerance of 1e-5, absolute tolerances 10x the model's (which are
 // meant for 1e-6): the integration's error belongs well inside the process noise the filter
