@@ -1,7 +1,7 @@
 #include "plant_models/core/matrix_exponential.hpp"
 
-#include <array>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -44,12 +44,16 @@ constexpr int kMaxBalanceSweeps = 10;
 // |c_(2m+1)| = (m!)^2 / ((2m)! (2m+1)!): the leading coefficient of exp(x) - r_m(x).
 double leading_error(int m) {
   double m_factorial = 1.0, two_m_factorial = 1.0;
-  for (int k = 1; k <= m; ++k) m_factorial *= k;
-  for (int k = 1; k <= 2 * m; ++k) two_m_factorial *= k;
+  for (int k = 1; k <= m; ++k)
+    m_factorial *= k;
+  for (int k = 1; k <= 2 * m; ++k)
+    two_m_factorial *= k;
   return m_factorial * m_factorial / (two_m_factorial * two_m_factorial * (2 * m + 1));
 }
 
-double one_norm(const Eigen::MatrixXd& m) { return m.cwiseAbs().colwise().sum().maxCoeff(); }
+double one_norm(const Eigen::MatrixXd& m) {
+  return m.cwiseAbs().colwise().sum().maxCoeff();
+}
 
 }  // namespace
 

@@ -128,8 +128,8 @@ TEST_CASE("each Padé degree is taken where its d_k allow it, and is as accurate
     double norm;
     int degree;
   };
-  for (const Case c : {Case{0.005, 3}, Case{0.1, 5}, Case{0.5, 7}, Case{1.2, 9}, Case{3.0, 13},
-                       Case{40.0, 13}}) {
+  for (const Case c :
+       {Case{0.005, 3}, Case{0.1, 5}, Case{0.5, 7}, Case{1.2, 9}, Case{3.0, 13}, Case{40.0, 13}}) {
     const Eigen::MatrixXd A = c.norm * B;
     REQUIRE(expm.compute(A, E));
     const Eigen::MatrixXd reference = A.exp();
