@@ -179,6 +179,9 @@ Integrator::Integrator(const ContinuousModel& model, const IntegratorOptions& op
 
   if (options_.sensitivities && options_.sensitivity_method == SensitivityMethod::kExponential) {
     transition_ = std::make_unique<Transition>(static_cast<Eigen::Index>(n_));
+    IntegratorOptions fallback = options_;
+    fallback.sensitivity_method = SensitivityMethod::kCvodesNewton;
+    fallback_ = std::make_unique<Integrator>(model, fallback);
   } else if (options_.sensitivities) {
     s.ns = static_cast<int>(n_);
     const double sens_tol =
@@ -242,11 +245,23 @@ IntegrationResult Integrator::step(std::span<double> x, std::span<const double> 
   }
   if (result.flag >= 0) result.flag = CVodeSetStopTime(s.cvode, dt);
   double t = 0.0;
+  exponential_failed_ = false;
   if (result.flag >= 0) {
     if (transition_ != nullptr && !F.empty())
       result.flag = exponential_steps(dt, F);
     else
       result.flag = CVode(s.cvode, dt, s.y, &t, CV_NORMAL);
+  }
+  if (exponential_failed_) {
+    // x is untouched on failure: the period again, F by CVODES's sensitivities. The kept
+    // Jacobian and exponential describe a state the next period should not trust.
+    forget_jacobian();
+    ++fallbacks_;
+    const IntegrationResult again = fallback_->step(x, u, dt, F);
+    stats_ = fallback_->last_stats();
+    if (!again.ok())
+      std::snprintf(last_error_.data(), last_error_.size(), "%s", fallback_->last_error());
+    return again;
   }
 
   stats_ = {};
@@ -317,7 +332,10 @@ int Integrator::exponential_steps(double dt, std::span<double> F) {
     if (j_start != tr.e_start || j_end != tr.e_end || length != tr.e_length) {
       tr.e_start = -1;  // E is being replaced
       tr.J_mid = 0.5 * length * (tr.J_start + tr.T);
-      if (!tr.expm.compute(tr.J_mid, tr.E)) return report("no matrix exponential", t);
+      if (!tr.expm.compute(tr.J_mid, tr.E)) {
+        exponential_failed_ = true;
+        return report("no matrix exponential", t);
+      }
       tr.e_start = j_start;
       tr.e_end = j_end;
       tr.e_length = length;

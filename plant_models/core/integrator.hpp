@@ -125,7 +125,11 @@ class Integrator {
 
   // Advances x (size n) by dt seconds with the inputs u held. When sensitivities are enabled
   // and F is not empty, writes F (n x n, column-major) = dx(dt)/dx(0). On failure x is left at
-  // its initial value and F untouched.
+  // its initial value and F untouched. kExponential: where a segment's exponential overflows (a
+  // state whose linearisation has a mode growing by more than e^709 over the segment, e.g. an
+  // evaporator cell an update left below the one upstream of it, which CVODES resolves in steps
+  // of microseconds), the period is integrated again with F by CVODES's own sensitivities,
+  // which follow the growth step by step and saturate with the state.
   IntegrationResult step(std::span<double> x, std::span<const double> u, double dt,
                          std::span<double> F);
 
@@ -134,6 +138,8 @@ class Integrator {
   void forget_jacobian();
 
   [[nodiscard]] const IntegrationStats& last_stats() const { return stats_; }
+  // kExponential: the periods whose F fell back to CVODES's own sensitivities (see step()).
+  [[nodiscard]] long fallbacks() const { return fallbacks_; }
   // The last message CVODES reported (empty if none); fixed storage, no allocation.
   [[nodiscard]] const char* last_error() const { return last_error_.data(); }
   [[nodiscard]] std::size_t size() const { return n_; }
@@ -151,9 +157,14 @@ class Integrator {
   IntegratorOptions options_;
   std::size_t n_;
   std::unique_ptr<Sundials> s_;
-  std::span<const double> u_;                  // inputs during the current step
-  std::unique_ptr<JacobianCache> jacobians_;   // J at the last state asked for
-  std::unique_ptr<Transition> transition_;     // kExponential only
+  std::span<const double> u_;                 // inputs during the current step
+  std::unique_ptr<JacobianCache> jacobians_;  // J at the last state asked for
+  std::unique_ptr<Transition> transition_;    // kExponential only
+  // kExponential: the same options but F by CVODES's corrector, for a period whose exponentials
+  // overflow (step()); built with this one, so that falling back allocates nothing.
+  std::unique_ptr<Integrator> fallback_;
+  long fallbacks_ = 0;
+  bool exponential_failed_ = false;            // this step()'s segment exponential failed
   std::unique_ptr<double[]> sens_, sens_dot_;  // n x n: sensitivities gathered, and J S
   IntegrationStats stats_;
   long newton_failures_seen_ = 0;  // CVODES's count at this step()'s last Jacobian request

@@ -6,6 +6,7 @@
 // replays the truth's model (TruthKind::kNominal) at the truth's tolerance.
 //
 //   predict_replay FILE [--index K] [--period S]
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -83,11 +84,15 @@ void try_step(plant::Integrator& integ, std::vector<double> x, const std::vector
   std::vector<double> F(x.size() * x.size());
   const auto r = integ.step(x, u, dt, F);
   const auto& st = integ.last_stats();
+  // F's largest entry: a linearisation that grows fast makes F P F' overflow the covariance.
+  double largest = 0.0;
+  for (const double f : F)
+    largest = std::max(largest, std::abs(f));
   std::printf(
       "  %s, %.3g s: flag %d, %ld steps, %ld RHS, %ld Jacobians, %ld error-test and %ld "
-      "nonlinear failures%s%s\n",
+      "nonlinear failures, max |F| %.3g%s%s\n",
       what, dt, r.flag, st.steps, st.rhs_evals, st.model_jacobians, st.error_test_failures,
-      st.nonlinear_failures, r.ok() ? "" : ": ", r.ok() ? "" : integ.last_error());
+      st.nonlinear_failures, largest, r.ok() ? "" : ": ", r.ok() ? "" : integ.last_error());
 }
 
 }  // namespace
