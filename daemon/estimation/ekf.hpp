@@ -134,6 +134,9 @@ class Ekf final : public Estimator {
   // Updates whose posterior the model could not evaluate, stepped back toward the prior
   // (keep_evaluable()). Not in a checkpoint.
   [[nodiscard]] std::uint64_t posterior_step_backs() const { return step_backs_; }
+  // Steps whose covariance was positive definite only after its variances were widened by a
+  // relative 1e-12 to 1e-6 against rounding (healthy()). Not in a checkpoint.
+  [[nodiscard]] std::uint64_t covariance_jitters() const { return jitters_; }
   // Output estimates that reused the update's output Jacobian, and all of them. Not in a
   // checkpoint.
   [[nodiscard]] std::uint64_t output_jacobian_reuses() const { return h_reuses_; }
@@ -188,7 +191,8 @@ class Ekf final : public Estimator {
   Eigen::MatrixXd P_prior_;               // P before this update's fusion (after a reset: P0)
   Eigen::VectorXd x_try_, xdot_, y_try_;  // keep_evaluable()'s scratch
   std::uint64_t step_backs_ = 0;
-  Eigen::MatrixXd H_;  // m x n output Jacobian, evaluated at (h_x_, h_u_)
+  std::uint64_t jitters_ = 0;  // healthy()'s widenings against rounding
+  Eigen::MatrixXd H_;          // m x n output Jacobian, evaluated at (h_x_, h_u_)
   // Where H_ was evaluated: the state, the inputs, whether it holds (reset() and restore() end
   // it); the distance's unit per state (its initial_std) and per input (its reuse_scale).
   Eigen::VectorXd h_x_, h_scale_;
