@@ -76,16 +76,15 @@ struct Args {
 
 // --sample-truth SEED: a unit drawn from the filters' own priors, as a Monte-Carlo NEES needs
 // (the nominal truth sits at the prior mean of every parameter no sensor pins down, so its errors
-// in those directions are far below sigma): the five unit parameters the filters estimate with a
-// fixed prior (both coils' UA, both compressor efficiencies and, drawn last so that a seed's
-// first four stay what they were, the valve's flow coefficient; hp_params.cpp, factor_info)
-// drawn from N(1, initial_std) within their ranges, and the seed's own scenario (internal gains)
-// and sensor noise. The closures stay the truth's own (Smith, other correlations): their factors
+// in those directions are far below sigma): the four unit parameters the filters estimate with a
+// fixed prior (both coils' UA, both compressor efficiencies; hp_params.cpp, factor_info) drawn
+// from N(1, initial_std) within their ranges, and the seed's own scenario (internal gains) and
+// sensor noise. The closures stay the truth's own (Smith, other correlations): their factors
 // have no true value to draw.
 void sample_truth(std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  for (const std::size_t f : {plant::hp::kCondUa, plant::hp::kEvapUa, plant::hp::kCompFlow,
-                              plant::hp::kCompWork, plant::hp::kValve}) {
+  for (const std::size_t f :
+       {plant::hp::kCondUa, plant::hp::kEvapUa, plant::hp::kCompFlow, plant::hp::kCompWork}) {
     const plant::hp::FactorInfo& info = plant::hp::factor_info()[f];
     const double v = std::clamp(std::normal_distribution<double>(1.0, info.initial_std)(rng),
                                 info.min, info.max);

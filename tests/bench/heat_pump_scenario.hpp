@@ -243,9 +243,8 @@ class HeatPumpTruth {
 
 // The filters' model: the nominal parameters at the default cell count with what the daemon's
 // heat-pump configuration augments (config/demo-heat-pump.json): both coils' air-side UA, the
-// compressor's volumetric and isentropic efficiencies, the void-fraction exponent, both
-// two-phase heat-transfer factors and the expansion valve's flow coefficient, all estimated
-// (plant::hp::factor_info says why; the valve: plant_models/README.md, "Honest sigma"). Benchmarks
+// compressor's volumetric and isentropic efficiencies, the void-fraction exponent and both
+// two-phase heat-transfer factors, all estimated (plant::hp::factor_info says why). Benchmarks
 // may change it (estimation_bench --set), and the random walks and consider flags below, before
 // they build a filter. Measured on the nominal truth, one hour (constrained EKF): with fouling
 // alone augmented the valve-inlet enthalpy, subcooling and cooling capacity were 9-12 sigma off
@@ -258,7 +257,7 @@ inline plant::ParameterMap& filter_parameters() {
       {"augment_fouling", 1},          {"augment_evap_ua_factor", 1},
       {"augment_comp_flow_factor", 1}, {"augment_comp_efficiency_factor", 1},
       {"augment_void_exponent", 1},    {"augment_cond_htc_factor", 1},
-      {"augment_evap_htc_factor", 1},  {"augment_valve_factor", 1}};
+      {"augment_evap_htc_factor", 1}};
   return p;
 }
 // Commissioning (daemon/estimation/commissioning.hpp): for this long after the start the filters

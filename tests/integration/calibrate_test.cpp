@@ -48,14 +48,8 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
           "[calibration][integration]") {
   ScratchDir dir("calibrate");
   const std::string csv = dir / "commissioning.csv", cal = dir / "hp1.calibration.json";
-  // The demo's unit, but with a filter that holds the valve factor as a constant of its model
-  // (the demo estimates it), so that the file shows both kinds of fitted parameter.
-  auto unit_config = nlohmann::json::parse(std::ifstream(kConfig));
-  unit_config["units"][0]["model"]["parameters"].erase("augment_valve_factor");
-  const std::string config = dir / "unit.json";
-  std::ofstream(config) << unit_config.dump();
-  std::vector<std::string> sim{"--config", config, "--commissioning", "--as-configured",
-                               "--step",   "5",    "--quiet"};
+  std::vector<std::string> sim{"--config", kConfig, "--commissioning", "--as-configured",
+                               "--step",   "5",     "--quiet"};
   std::string fit;
   for (const auto& [name, value] : kTruth) {
     sim.insert(sim.end(), {"--set", name + "=" + std::to_string(value)});
@@ -69,7 +63,7 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
 
   const std::string report = dir / "calibration.html";
   const Run fitted = run(dir, HVAC_TWIN_CALIBRATE_EXE,
-                         {"--config", config, "--charge", "0.5", "--fit", fit, "--offsets",
+                         {"--config", kConfig, "--charge", "0.5", "--fit", fit, "--offsets",
                           "outdoor_coil_out_temp=1", "--out", cal, "--report", report, csv});
   INFO(fitted.err);
   REQUIRE(fitted.rc == 0);
@@ -105,7 +99,7 @@ TEST_CASE("hvac-twin-calibrate recovers a commissioning run's factors and the un
   CHECK(file["initial_std"].contains("fouling"));
   CHECK_FALSE(file["initial_std"].contains("valve_factor"));
 
-  auto site = unit_config;
+  auto site = nlohmann::json::parse(std::ifstream(kConfig));
   site["units"][0]["calibration"] = "hp1.calibration.json";
   std::ofstream(dir / "site.json") << site.dump();
   const auto loaded =

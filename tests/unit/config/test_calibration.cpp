@@ -88,9 +88,9 @@ TEST_CASE("a bad calibration file is an error naming the file, the key in it and
                                {"hp1.calibration.json: /parameters/fouling", "5"});
   }
   SECTION("a sigma of a state the unit's filter does not carry") {
-    f.initial_std["friction_factor"] = 0.02;
-    test::require_single_error(
-        site.load(f), at, {"/initial_std/friction_factor", "unknown state \"friction_factor\""});
+    f.initial_std["valve_factor"] = 0.02;
+    test::require_single_error(site.load(f), at,
+                               {"/initial_std/valve_factor", "unknown state \"valve_factor\""});
   }
   SECTION("a parameter the model does not have") {
     f.parameters["foulling"] = 0.9;

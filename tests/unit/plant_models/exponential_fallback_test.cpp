@@ -35,7 +35,7 @@ IntegratorOptions filter_options(SensitivityMethod method) {
 
 TEST_CASE("an exponential that overflows: the period's F by CVODES's sensitivities instead",
           "[integrator][expm]") {
-  const test::HeatPumpRig rig(test::demo_structure());
+  const test::HeatPumpRig rig(test::stiff_structure());
   REQUIRE(rig.model->num_states() == test::kStiffState.size());
   const std::size_t n = test::kStiffState.size();
   Integrator exponential(*rig.model, filter_options(SensitivityMethod::kExponential));

@@ -20,12 +20,12 @@ inline std::vector<double> nominal_inputs(double t_out = 35.0) {
 }
 
 // The structure the demo runs (config/demo-heat-pump.json) and the build exports the heat-pump
-// FMU with (io/fmi/CMakeLists.txt): the eight factors it estimates carried as states.
+// FMU with (io/fmi/CMakeLists.txt): the seven closures it estimates carried as states.
 inline plant::ParameterMap demo_structure() {
   plant::ParameterMap p;
   for (const char* factor :
        {"fouling", "evap_ua_factor", "comp_flow_factor", "comp_efficiency_factor", "void_exponent",
-        "cond_htc_factor", "evap_htc_factor", "valve_factor"})
+        "cond_htc_factor", "evap_htc_factor"})
     p[std::string("augment_") + factor] = 1.0;
   return p;
 }

@@ -1,5 +1,6 @@
 // A state the leak benchmark's filter reached at 21 h of scenarios (b) and (f) (leak_bench
-// --trace-dir, its failure dump), on the demo's structure (test::demo_structure(): 65 states):
+// --trace-dir, its failure dump) with the valve factor estimated as well (stiff_structure(): the
+// demo's structure and the valve, 65 states):
 // the compressor just started at 20 Hz, the valve at 0.41, the evaporator's first cells left
 // colder than the one downstream of them by an update. Its linearisation has modes growing at
 // 1e10 per second and modes decaying as fast, so F is far from orthogonal: the matrix
@@ -9,7 +10,15 @@
 
 #include <vector>
 
+#include "tests/unit/plant_models/heat_pump_fixture.hpp"
+
 namespace hvac_twin::test {
+
+inline plant::ParameterMap stiff_structure() {
+  plant::ParameterMap p = demo_structure();
+  p["augment_valve_factor"] = 1.0;
+  return p;
+}
 
 inline const std::vector<double> kStiffState{
     0.50280945315172176, 0.46861393639324639, 578.01064575714554,  511.30347440186011,
