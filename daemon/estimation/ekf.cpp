@@ -471,7 +471,7 @@ bool Ekf::healthy() {
   // Positive definite but for rounding: through a stiff state F P Fᵀ mixes variances 1e16 apart
   // (fast modes decay to nothing, others grow), and the doubles leave eigenvalues of -1e-14 of
   // the largest where the process noise of a slow parameter adds 1e-12 (measured on the heat
-  // pump, tests/unit/estimation/stiff_predict_test.cpp). Each variance widened by a relative
+  // pump at tests/unit/plant_models/stiff_state.hpp). Each variance widened by a relative
   // 1e-12, then 1e-10 ... 1e-6, until the factorisation holds: far below what any estimate
   // publishes, where a reset would throw the period's prediction away. Beyond that P is not
   // a rounding away from a covariance, and the step is reset.

@@ -1,8 +1,9 @@
 // The EKF's health check after a prediction whose covariance is positive semi-definite but not
 // definite in doubles: F P F' through a stiff model, where fast modes decay to nothing and leave
 // variances 1e16 apart (on the heat pump at tests/unit/plant_models/stiff_state.hpp, with every
-// sigma at 3 % of its initial one, F P F' had eigenvalues of -1e-14 of the largest, and the
-// leak benchmark's filter reset three predictions in a row there).
+// sigma at 10 % of its initial one, F P F' had eigenvalues of -1e-14 of the largest; an EKF
+// there with every sigma at 3 % reset its prediction, and the leak benchmark's filter reset
+// three in a row).
 #include <catch2/catch.hpp>
 #include <vector>
 
