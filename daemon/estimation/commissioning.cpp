@@ -94,6 +94,7 @@ void StatePhases::apply(Estimator& filter, double t, std::span<const double> u) 
     filter.set_consider(i, consider);
     filter.set_gain_weight(i, augmented_[i] != 0 ? release : 1.0);
   }
+  filter.set_starting(!settle && release < 1.0);
 }
 
 }  // namespace hvac_twin::est

@@ -18,7 +18,9 @@
 //    sigma the hold kept, one update linearised at the prior moved them across their range and
 //    collapsed the predicted sigma of the outputs they drive; a sensor the move left 3 sigma
 //    off was gated out for good (the heat pump's condenser-outlet wall, fused in 0 of 72 cycles
-//    after the release; lost_track_test).
+//    after the release; lost_track_test). During the ramp the filter is starting
+//    (Estimator::set_starting): a point still gated out from the hold, while the others pass, is
+//    re-tested against the initial covariance (ekf.hpp, "Re-admission").
 //  - operation: the known states are estimated again (a change of the charge must show as a
 //    charge change); the calibrated closures are frozen at their estimates, their posterior sigma
 //    carried as consider states. Without commissioning they stay considered at their prior: their

@@ -219,7 +219,8 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
     clean_updates_ = rejected == 0 && available > 0 ? clean_updates_ + 1 : 0;
     if (clean_updates_ >= kRecoveredAfterUpdates) recovering_ = false;
   }
-  if ((available == 1 && rejected == 1) || (recovering_ && 2 * rejected <= available))
+  const bool recovering = recovering_ || starting_;
+  if ((available == 1 && rejected == 1) || (recovering && 2 * rejected <= available))
     arm_faulty(reports, count);
   const bool readmit = readmission_due(z, reports, count);
   const bool reset = readmit || lost;
@@ -250,7 +251,9 @@ StepStatus Ekf::update(std::span<const Measurement> z, std::span<const double> u
   P_prior_ = P_;
   for (std::size_t i = 0; i < count; ++i) {
     if (!reports[i].fused || (reset && held_[i] >= 0)) continue;
-    if (!reset)
+    if (!reset && recovering)
+      streaks_.disarm_keeping_backoff(i);  // fused by the gate; armed again later, after longer
+    else if (!reset)
       streaks_.disarm(i);  // fused by the gate
     else if (streaks_.armed(i))
       streaks_.keep_armed(i);  // let in by a reset

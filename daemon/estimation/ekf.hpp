@@ -37,7 +37,10 @@
 // max_consecutive_rejections times in a row while most others pass, is armed at once
 // (lost_track_test: after absurd readings on six of seven points the condenser-outlet wall, right
 // again, was otherwise gated out for good, or for most updates, and the discharge pressure stayed
-// 3 sigma off; recovery_test). A point that is the only
+// 3 sigma off; recovery_test). The same while the filter starts (Estimator::set_starting:
+// StatePhases' release ramp), when the held parameters' error has been carried by the physical
+// states. While recovering or starting, a point fused between two streaks keeps its back-off,
+// so each re-test of a point that falls out again comes twice as late. A point that is the only
 // available one is: rejected max_consecutive_rejections times in a row, it is tested against
 // the initial covariance at once and then with the same back-off, unless its reading has not
 // changed once in the streak (a frozen transmitter, for the stuck check). Alone, there is no other

@@ -209,6 +209,15 @@ class Estimator {
     return state < gain_weight_.size() ? gain_weight_[state] : 1.0;
   }
 
+  // Whether the filter is starting: its slow states held at their priors or not yet at full
+  // gain (StatePhases sets it while releasing()). The EKF then treats a point rejected while
+  // most others pass as it does after a reset for lost track (ekf.hpp, "Re-admission"): while
+  // the held parameters are wrong the physical states absorb their error, and a sensor that only
+  // sees the state they carried off is gated out; nothing else would let it back in once the
+  // parameters are free. The EnKF ignores it. No allocation.
+  void set_starting(bool starting) { starting_ = starting; }
+  [[nodiscard]] bool starting() const { return starting_; }
+
  protected:
   // The filter's own estimate of every output and its standard deviation, without the model's
   // structural error (output_estimates adds it).
@@ -231,6 +240,7 @@ class Estimator {
   }
   std::vector<char> consider_;
   std::vector<double> gain_weight_;                    // per state, 0 to 1 (set_gain_weight)
+  bool starting_ = false;                              // set_starting()
   std::vector<double> model_error_, model_error_rel_;  // per output
 
   // The checks every restore() makes: sizes, finiteness, symmetry, non-negative variances. A

@@ -72,11 +72,14 @@ class RejectionStreaks {
 
   // A faulty point whose reading moved during its streak (the only available one, or one just
   // after a reset for lost track): armed (if it is not yet), its test due now; take_due() then sets
-  // the next one 2 x max_consecutive later.
+  // the next one 2 x max_consecutive later. With a back-off kept from an earlier test
+  // (disarm_keeping_backoff(): fused between two streaks while the filter recovers), the test is
+  // due when the streak reaches that interval: a sensor that is let in and falls out again costs
+  // a reset ever more rarely, as one that stays out does.
   void arm_now(std::size_t i, int max_consecutive) noexcept {
     if (at_[i] != 0 || varied_[i] == 0) return;
+    at_[i] = std::max(count_[i], interval_[i]);
     interval_[i] = std::max(interval_[i], max_consecutive);
-    at_[i] = count_[i];
   }
   // A point held out at a reset whose re-test failed: armed (if it is not yet), tested `interval`
   // (at least `min_interval`) rejections from now.

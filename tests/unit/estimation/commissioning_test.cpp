@@ -137,3 +137,27 @@ TEST_CASE("state phases: a parameter only a running process reveals is held whil
   CHECK(ekf.state()(1) == a0);
   CHECK(ekf.state()(0) != 1.0);
 }
+
+TEST_CASE("state phases: the filter is starting while the parameters' gain ramps up",
+          "[commissioning][ekf]") {
+  const plant::AdModel<Phased> model(Phased{});
+  est::Ekf ekf(model, std::vector<double>(4, 0.0), 1, est::EkfOptions{});
+  ekf.reset(std::vector<double>{1.0, 0.0, 0.0, 0.45}, std::vector<double>{0.1, 0.2, 0.3, 0.05});
+  est::StatePhases phases(model.layout(), {}, 600.0, 0.0, 120.0);
+  REQUIRE(phases.begin(ekf, 0.0).empty());
+  CHECK_FALSE(ekf.starting());  // the hold: the parameters cannot fit a sensor yet
+  phases.apply(ekf, 599.0);
+  CHECK_FALSE(ekf.starting());
+  phases.apply(ekf, 600.0);
+  CHECK(ekf.starting());
+  CHECK(ekf.gain_weight(1) == 0.0);
+  phases.apply(ekf, 700.0);
+  CHECK(ekf.starting());
+  phases.apply(ekf, 720.0);
+  CHECK_FALSE(ekf.starting());
+  CHECK(ekf.gain_weight(1) == 1.0);
+  // Released at once (no ramp): never starting.
+  est::StatePhases at_once(model.layout(), {}, 600.0, 0.0, 0.0);
+  at_once.apply(ekf, 600.0);
+  CHECK_FALSE(ekf.starting());
+}

@@ -79,3 +79,33 @@ TEST_CASE("a point held out at a reset: armed for later, the back-off kept acros
   s.reject(0, 99.0);
   CHECK(s.take_due(0));
 }
+
+TEST_CASE("re-armed with a back-off kept, a point is tested when its streak reaches it",
+          "[estimator][readmission]") {
+  RejectionStreaks s;
+  s.resize(1);
+  const int max = 5;
+  const auto streak = [&](int n, double from) {
+    for (int k = 0; k < n; ++k)
+      s.reject(0, from + k);
+  };
+  streak(max, 1.0);
+  s.arm_now(0, max);     // fresh: due now
+  CHECK(s.take_due(0));  // the interval doubles to 10
+  s.accept(0);
+  s.disarm_keeping_backoff(0);  // fused between two streaks while the filter recovers
+  streak(max, 2.0);
+  s.arm_now(0, max);  // due at a streak of 10, not now
+  CHECK(s.armed(0));
+  for (int k = max; k < 10; ++k) {
+    CHECK_FALSE(s.take_due(0));
+    s.reject(0, 10.0 + k);
+  }
+  CHECK(s.count(0) == 10);
+  CHECK(s.take_due(0));  // and 20 the next time
+  s.accept(0);
+  s.disarm(0);  // fused by the gate once recovered: the back-off forgotten
+  streak(max, 3.0);
+  s.arm_now(0, max);
+  CHECK(s.take_due(0));
+}
