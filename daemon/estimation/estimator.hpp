@@ -209,8 +209,9 @@ class Estimator {
     return state < gain_weight_.size() ? gain_weight_[state] : 1.0;
   }
 
-  // Whether the filter is starting: its slow states held at their priors or not yet at full
-  // gain (StatePhases sets it while releasing()). The EKF then treats a point rejected while
+  // Whether the filter is starting: its slow states released from their hold but not yet at
+  // full gain (StatePhases sets it during the release ramp, not the hold, when the held
+  // parameters could not fit the point anyway). The EKF then treats a point rejected while
   // most others pass as it does after a reset for lost track (ekf.hpp, "Re-admission"): while
   // the held parameters are wrong the physical states absorb their error, and a sensor that only
   // sees the state they carried off is gated out; nothing else would let it back in once the
