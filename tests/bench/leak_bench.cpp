@@ -3,8 +3,8 @@
 // tests/bench/leak_scenario.hpp; leak_acceptance_test asserts the same properties in short form.
 //
 //   leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] [--replay DIR]
-//              [--band-hz W] [--allowance F] [--charge-noise F] [--days-a D] [--off-from H]
-//              [--adaptive-noise MIN:MAX] [--no-augment NAME]...
+//              [--band-hz W] [--allowance F] [--charge-noise F] [--rate-allowance G]
+//              [--days-a D] [--off-from H] [--adaptive-noise MIN:MAX] [--no-augment NAME]...
 //
 // --trace-dir DIR writes DIR/leak_bench_X.csv per scenario (a line per 5 simulated minutes),
 // DIR/leak_bench_X_decisions.csv (each decision's interval means) and
@@ -12,8 +12,8 @@
 // of each run of failures, to replay it alone.
 // --replay DIR runs only the detector, over the decision logs an earlier --trace-dir run wrote:
 // seconds instead of hours, to judge another detector design (--band-hz, --allowance and
-// --charge-noise, fractions of the nameplate charge, change the daemon's defaults) on the same
-// estimates.
+// --charge-noise, fractions of the nameplate charge, and --rate-allowance in g/h change the
+// daemon's defaults) on the same estimates.
 //
 // Long form (the acceptance figures):
 //   (a) seven days of normal operation: daily outdoor cycle, day/night setpoints, internal
@@ -67,23 +67,25 @@ std::string hours(double s) {
 // The in-control decisions of a run (before its leak started): the statistics the two CUSUMs
 // sum, and the charge deficit they are made of, against the design's assumptions.
 void print_in_control(const std::string& name, const bench::LeakRunResult& r) {
-  std::vector<double> z, zc, deficit_g;
+  std::vector<double> z, zc, deficit_g, rate;
   for (const auto& d : r.decision_log) {
     if (d.leaking) continue;
     z.push_back(d.z);
+    rate.push_back(d.rate_gph);
     if (d.reference > 0.0) {
       zc.push_back(d.zc);
       deficit_g.push_back(1e3 * (d.reference - d.charge));
     }
   }
   const bench::SeriesStats a = bench::series_stats(z), b = bench::series_stats(zc),
-                           c = bench::series_stats(deficit_g);
+                           c = bench::series_stats(deficit_g), g = bench::series_stats(rate);
   std::printf(
       "%s: in control (%zu decisions before any leak; the design assumes mean 0, sd 1, lag-1 r "
-      "0): leak-rate z mean %.2f sd %.2f r1 %.2f max %.2f; charge z_c (%zu judged) mean %.2f sd "
-      "%.2f r1 %.2f max %.2f; deficit C_ref - charge mean %.1f g sd %.1f g max %.1f g\n",
-      name.c_str(), a.n, a.mean, a.sd, a.r1, a.max, b.n, b.mean, b.sd, b.r1, b.max, c.mean, c.sd,
-      c.max);
+      "0): leak-rate z mean %.2f sd %.2f r1 %.2f max %.2f (the estimate mean %.2f g/h, sd %.2f, "
+      "max %.2f); charge z_c (%zu judged) mean %.2f sd %.2f r1 %.2f max %.2f; deficit C_ref - "
+      "charge mean %.1f g sd %.1f g max %.1f g\n",
+      name.c_str(), a.n, a.mean, a.sd, a.r1, a.max, g.mean, g.sd, g.max, b.n, b.mean, b.sd, b.r1,
+      b.max, c.mean, c.sd, c.max);
 }
 
 void write_decisions(const std::string& path, const bench::LeakRunResult& r) {
@@ -91,17 +93,20 @@ void write_decisions(const std::string& path, const bench::LeakRunResult& r) {
   if (f == nullptr) return;
   std::fprintf(f,
                "t_h,z,charge_kg,charge_sigma_kg,speed_hz,reference_kg,zc,truth_charge_kg,"
-               "leaking\n");
+               "leaking,rate_gph,inv_sigma_h_per_g,z_raw\n");
   for (const auto& d : r.decision_log)
-    std::fprintf(f, "%.4f,%.4f,%.6f,%.6f,%.2f,%.6f,%.4f,%.6f,%d\n", d.t_s / 3600.0, d.z, d.charge,
-                 d.charge_sigma, d.speed_hz, d.reference, d.zc, d.truth_charge, d.leaking ? 1 : 0);
+    std::fprintf(f, "%.4f,%.4f,%.6f,%.6f,%.2f,%.6f,%.4f,%.6f,%d,%.4f,%.6f,%.4f\n", d.t_s / 3600.0,
+                 d.z, d.charge, d.charge_sigma, d.speed_hz, d.reference, d.zc, d.truth_charge,
+                 d.leaking ? 1 : 0, d.rate_gph, d.inv_sigma, d.z_raw);
   std::fclose(f);
 }
 
 // A run's decision log replayed through a detector with `options`: the logged interval means
 // fed as one constant stretch of interval_s each, so every call is one decision (no warm-up or
 // start-up hold: the log holds only judged decisions). The same options reproduce the run's
-// alarms; others show what another design would have decided on the same estimates.
+// alarms; others show what another design would have decided on the same estimates. The
+// leak-rate statistic is rebuilt for the options' rate allowance from the raw means the log keeps
+// (z_raw - allowance * inv_sigma); a log written before those columns has only its run's z.
 bool replay_decisions(const std::string& name, const std::string& path,
                       est::LeakDetectorOptions options, double leak_start_h) {
   std::FILE* f = std::fopen(path.c_str(), "r");
@@ -110,6 +115,8 @@ bool replay_decisions(const std::string& name, const std::string& path,
     return false;
   }
   options.warm_up_s = options.startup_s = 0.0;
+  const double rate_allowance = options.rate_allowance;
+  options.rate_allowance = 0.0;  // applied below, on the rate's own scale
   est::LeakDetector d(options);
   char line[512];
   bool first = true;
@@ -119,15 +126,22 @@ bool replay_decisions(const std::string& name, const std::string& path,
   (void)!std::fgets(line, sizeof line, f);  // the header
   while (std::fgets(line, sizeof line, f) != nullptr) {
     ++line_no;
-    double t_h = 0, z = 0, c = 0, cs = 0, hz = 0, ref = 0, zc = 0, truth = 0;
+    double t_h = 0, z = 0, c = 0, cs = 0, hz = 0, ref = 0, zc = 0, truth = 0, rate = 0,
+           inv_sigma = 0, z_raw = 0;
     int leaking = 0;
-    if (std::sscanf(line, "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d", &t_h, &z, &c, &cs, &hz, &ref, &zc,
-                    &truth, &leaking) != 9) {
-      std::fprintf(stderr, "leak_bench: %s:%d: expected 9 numbers (t_h,z,charge_kg,...,leaking)\n",
-                   path.c_str(), line_no);
+    const int fields =
+        std::sscanf(line, "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%d,%lf,%lf,%lf", &t_h, &z, &c, &cs, &hz,
+                    &ref, &zc, &truth, &leaking, &rate, &inv_sigma, &z_raw);
+    if (fields != 12 && !(fields == 9 && rate_allowance == 0.0)) {
+      std::fprintf(stderr,
+                   "leak_bench: %s:%d: expected 12 numbers (t_h,z,charge_kg,...,leaking,rate_gph,"
+                   "inv_sigma_h_per_g,z_raw)%s\n",
+                   path.c_str(), line_no,
+                   fields == 9 ? "; a log of 9 replays only with --rate-allowance 0" : "");
       std::fclose(f);
       return false;
     }
+    if (fields == 12) z = z_raw - rate_allowance * inv_sigma;
     if (first) {  // starts the detector: no time accumulated yet
       t = t_h * 3600.0 - options.interval_s;
       d.step(t, z, 1.0, c, cs, hz, false);
@@ -164,6 +178,7 @@ int main(int argc, char** argv) {
   std::string only = "abc", trace_dir, replay_dir;
   // --band-hz, --allowance, --charge-noise: the detector's, when set (negative: the default)
   double band_hz = -1.0, allowance = -1.0, charge_noise = -1.0;
+  double rate_allowance = -1.0;  // --rate-allowance G: the detector's, in g/h
   double period = 5.0;
   double days_a = 7.0;     // --days-a: the length of scenario (a) in the long form
   double off_from = -1.0;  // --off-from: the night set-back's clock hour (4 h long); -1: 01:00
@@ -186,6 +201,8 @@ int main(int argc, char** argv) {
       allowance = std::atof(next().c_str());
     else if (a == "--charge-noise")
       charge_noise = std::atof(next().c_str());
+    else if (a == "--rate-allowance")
+      rate_allowance = std::atof(next().c_str());
     else if (a == "--days-a")
       days_a = std::atof(next().c_str());
     else if (a == "--off-from")
@@ -201,8 +218,9 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
-                   "[--replay DIR] [--band-hz W] [--allowance F] [--charge-noise F] [--days-a D] "
-                   "[--off-from H] [--adaptive-noise MIN:MAX] [--no-augment NAME]...\n");
+                   "[--replay DIR] [--band-hz W] [--allowance F] [--charge-noise F] "
+                   "[--rate-allowance G] [--days-a D] [--off-from H] [--adaptive-noise MIN:MAX] "
+                   "[--no-augment NAME]...\n");
       return 2;
     }
   }
@@ -216,6 +234,7 @@ int main(int argc, char** argv) {
   if (band_hz > 0.0) base.detector.reference_band_hz = band_hz;
   if (allowance >= 0.0) base.detector.charge_allowance = allowance * bench::kNameplateChargeKg;
   if (charge_noise >= 0.0) base.detector.charge_noise = charge_noise * bench::kNameplateChargeKg;
+  if (rate_allowance >= 0.0) base.detector.rate_allowance = rate_allowance;
   if (off_from >= 0.0) {
     base.operation.off_from_h = off_from;
     base.operation.off_to_h = off_from + 4.0;
@@ -250,14 +269,15 @@ int main(int argc, char** argv) {
       "leak_bench (%s): truth heat_pump_r32 at 20 cells with perturbed parameters; filter: the "
       "constrained EKF on the daemon's model (12 cells, heat_pump_scenario.hpp), period %.0f s, "
       "adaptive noise [%.2f, %.2f]\n"
-      "detector: CUSUMs on the leak-rate estimate (sigma floor %.2f g/h) and on the charge "
+      "detector: CUSUMs on the leak-rate estimate (beyond %.1f g/h, sigma floor %.2f g/h) and on "
+      "the charge "
       "deficit (allowance %.1f g counted in units of %.1f g, reference over %.1f h judged; 0: "
       "off), a decision per %.0f "
       "min of judgeable operation, design shift %.1f sigma, one false alarm per %.0f days "
       "designed (threshold %.2f sigma); warm-up %.0f min, hold %.0f min after a start, cycling "
       "above %.0f starts/h\n",
       quick ? "short" : "long", period, bench::adaptive_noise_min, bench::adaptive_noise_max,
-      base.detector.sigma_floor, 1e3 * base.detector.charge_allowance,
+      base.detector.rate_allowance, base.detector.sigma_floor, 1e3 * base.detector.charge_allowance,
       1e3 * (base.detector.charge_noise > 0.0 ? base.detector.charge_noise
                                               : base.detector.charge_allowance),
       base.detector.reference_s / 3600.0, base.detector.interval_s / 60.0,

@@ -92,12 +92,15 @@ struct LeakRunOptions {
 // One decision of the detector: its interval means, what it judged, and the truth then.
 struct LeakDecision {
   double t_s = 0.0;
-  double z = 0.0;                                           // the leak-rate statistic [sigma]
+  double z = 0.0;  // the leak-rate statistic, beyond the detector's rate allowance [sigma]
   double charge = 0.0, charge_sigma = 0.0, speed_hz = 0.0;  // interval means [kg], [Hz]
   double reference = -1.0;  // C_ref of the band [kg]; -1: not judged on the charge
   double zc = 0.0;          // the charge-deficit statistic when judged [sigma]
   double truth_charge = 0.0;
   bool leaking = false;  // the truth leaked during the interval's end
+  // The interval's means of the leak-rate estimate [g/h], of 1 / max(sigma, floor) and of
+  // leak / max(sigma, floor): z = z_raw - allowance * inv_sigma, for replays with another one.
+  double rate_gph = 0.0, inv_sigma = 0.0, z_raw = 0.0;
 };
 
 struct LeakRunResult {
@@ -215,6 +218,7 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
   const long steps = std::lround(o.days * 86400.0 / o.period_s);
   double last_start = -1e30;
   bool prev_running = false;
+  double rate_sum = 0.0, inv_sigma_sum = 0.0, z_raw_sum = 0.0, judged_s = 0.0;  // decision log
   est::LeakState prev_state = est::LeakState::kNormal;
   double truth_charge_at_leak = -1.0, est_charge_at_leak = -1.0;
   long charge_n = 0, q_n = 0, leak_n = 0, referred_n = 0;
@@ -299,13 +303,33 @@ inline LeakRunResult run_leak_scenario(const LeakRunOptions& o) {
                       u[kCompressorSpeed], !ok || !fused);
     r.held_s[static_cast<std::size_t>(rep.hold)] += o.period_s;
     const bool leaking = o.leak_g_per_h > 0.0 && t_end > o.leak_start_s;
+    // The interval's rate means, accumulated as the detector does (a held cycle discards them).
+    if (rep.hold != est::HoldReason::kNone) {
+      rate_sum = inv_sigma_sum = z_raw_sum = judged_s = 0.0;
+    } else {
+      const double s = std::max(sigma[kLeakRate], o.detector.sigma_floor);
+      rate_sum += o.period_s * y[kLeakRate];
+      inv_sigma_sum += o.period_s / s;
+      z_raw_sum += o.period_s * y[kLeakRate] / s;
+      judged_s += o.period_s;
+    }
     if (rep.decisions > r.decisions) {
       r.decisions = rep.decisions;
       if (rep.charge_reference > 0.0) ++r.charge_decisions;
-      r.decision_log.push_back({t_end, rep.statistic, rep.interval_charge,
-                                rep.interval_charge_sigma, rep.interval_speed_hz,
-                                rep.charge_reference, rep.charge_statistic, truth.x()[truth_charge],
-                                leaking});
+      LeakDecision d{t_end,
+                     rep.statistic,
+                     rep.interval_charge,
+                     rep.interval_charge_sigma,
+                     rep.interval_speed_hz,
+                     rep.charge_reference,
+                     rep.charge_statistic,
+                     truth.x()[truth_charge],
+                     leaking};
+      d.rate_gph = rate_sum / judged_s;
+      d.inv_sigma = inv_sigma_sum / judged_s;
+      d.z_raw = z_raw_sum / judged_s;
+      r.decision_log.push_back(d);
+      rate_sum = inv_sigma_sum = z_raw_sum = judged_s = 0.0;
     }
     if (rep.state != prev_state && rep.state != est::LeakState::kNormal) {
       if (!leaking) {
