@@ -89,6 +89,8 @@ struct LeakDetectionConfig {
   double min_compressor_speed_hz = 5.0;       // below: the compressor is off [Hz]
   double max_starts_per_hour = 3.0;           // more starts in the last hour: cycling, held
   double leak_sigma_floor = 0.1;              // smallest leak-rate sigma divided by [g/h]
+  // The leak-rate estimate's in-control level: only a rate beyond it accumulates [g/h].
+  double leak_rate_allowance = 3.0;
   // The charge estimate's in-control wander within a speed band, as a fraction of the
   // nameplate charge (0: the charge-deficit statistic off).
   double charge_allowance = 0.02;

@@ -210,6 +210,7 @@ void read_leak_detection(const Ref& ref, Errors& errors, LeakDetectionConfig& ou
            "Hz");
   r.number("max_starts_per_hour", out.max_starts_per_hour, positive(3600.0));
   r.number("leak_sigma_floor", out.leak_sigma_floor, closed(0.0, 1e4), false, "g/h");
+  r.number("leak_rate_allowance", out.leak_rate_allowance, closed(0.0, 1e4), false, "g/h");
   r.number("charge_allowance", out.charge_allowance, closed(0.0, 1.0));
   r.number("charge_noise", out.charge_noise, closed(0.0, 1.0));
   r.number("reference_s", out.reference_s, positive(30.0 * kMaxPeriodS), false, "s");

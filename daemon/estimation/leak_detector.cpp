@@ -118,7 +118,7 @@ const LeakReport& LeakDetector::step_with(double t, double leak, double sigma, d
     return report_;
   }
 
-  z_sum_ += dt * leak / std::max(sigma, options_.sigma_floor);
+  z_sum_ += dt * (leak - options_.rate_allowance) / std::max(sigma, options_.sigma_floor);
   z_time_ += dt;
   if (use_charge) {
     c_sum_ += dt * charge;

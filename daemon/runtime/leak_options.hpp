@@ -20,6 +20,7 @@ inline est::LeakDetectorOptions leak_detector_options(const config::LeakDetectio
   o.min_compressor_speed_hz = c.min_compressor_speed_hz;
   o.max_starts_per_hour = c.max_starts_per_hour;
   o.sigma_floor = c.leak_sigma_floor;
+  o.rate_allowance = c.leak_rate_allowance;
   o.charge_allowance = c.charge_allowance * nameplate_charge_kg;
   o.charge_noise = c.charge_noise * nameplate_charge_kg;
   o.reference_s = c.reference_s;

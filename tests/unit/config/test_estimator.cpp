@@ -48,10 +48,11 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
   }
   auto& est = j["units"][0]["estimator"];
   est["checkpoint_every_cycles"] = 0;
-  est["leak_detection"] = {{"interval_s", 600},        {"false_alarm_interval_days", 365},
-                           {"max_starts_per_hour", 6}, {"charge_allowance", 0},
-                           {"reference_s", 7200},      {"reference_band_hz", 10},
-                           {"leak_sigma_floor", 0.5},  {"charge_noise", 0.01}};
+  est["leak_detection"] = {{"interval_s", 600},         {"false_alarm_interval_days", 365},
+                           {"max_starts_per_hour", 6},  {"charge_allowance", 0},
+                           {"reference_s", 7200},       {"reference_band_hz", 10},
+                           {"leak_sigma_floor", 0.5},   {"charge_noise", 0.01},
+                           {"leak_rate_allowance", 2.5}};
   {
     const auto r = load_json(j);
     require_ok(r);
@@ -66,6 +67,7 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
     CHECK(e.leak_detection.reference_band_hz == 10.0);
     CHECK(e.leak_detection.leak_sigma_floor == 0.5);
     CHECK(e.leak_detection.charge_noise == 0.01);
+    CHECK(e.leak_detection.leak_rate_allowance == 2.5);
   }
   est["leak_detection"]["charge_allowance"] = 1.5;
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/charge_allowance",
@@ -75,6 +77,10 @@ TEST_CASE("estimator.leak_detection and checkpoint_every_cycles: values, default
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/charge_noise",
                        {"[0, 1]", "got -0.01"});
   est["leak_detection"]["charge_noise"] = 0.006;
+  est["leak_detection"]["leak_rate_allowance"] = -1;
+  require_single_error(load_json(j), "/units/0/estimator/leak_detection/leak_rate_allowance",
+                       {"[0, 10000]", "got -1"});
+  est["leak_detection"]["leak_rate_allowance"] = 2.5;
   est["leak_detection"]["reference_band_hz"] = 0.5;
   require_single_error(load_json(j), "/units/0/estimator/leak_detection/reference_band_hz",
                        {"[1, 1000]", "got 0.5"});

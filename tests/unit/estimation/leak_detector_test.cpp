@@ -386,3 +386,28 @@ TEST_CASE("a restored detector continues the charge deficit exactly", "[leak]") 
   CHECK_FALSE(fresh.restore_state(bad));
   CHECK(fresh.report().decisions == 0);
 }
+
+TEST_CASE("only a leak rate beyond the allowance accumulates", "[leak]") {
+  // leak_bench's 7 days of normal operation: the estimate sat at about 3 g/h on a published
+  // sigma of about 3.3 g/h, z about 1 = k, so S_rate drifted. With the allowance at that level
+  // an in-control interval adds nothing, and a leak beyond it is found as before.
+  auto o = every_second(17520.0);
+  const auto s_rate = [&](double allowance, double leak, int decisions) {
+    o.rate_allowance = allowance;
+    LeakDetector d(o);
+    d.step(0.0, leak, 3.3, 50.0, false);
+    for (int k = 1; k <= decisions; ++k)
+      d.step(static_cast<double>(k), leak, 3.3, 50.0, false);
+    return d.report();
+  };
+  // In control, 3.6 g/h: z 1.09, 0.09 above k per decision without the allowance.
+  CHECK(s_rate(0.0, 3.6, 100).rate_cusum == Approx(100 * (3.6 / 3.3 - 1.0)).epsilon(1e-9));
+  CHECK(s_rate(0.0, 3.6, 100).state != LeakState::kNormal);
+  CHECK(s_rate(3.5, 3.6, 100).rate_cusum == 0.0);
+  CHECK(s_rate(3.5, 3.6, 100).state == LeakState::kNormal);
+  CHECK(s_rate(3.5, 3.6, 100).statistic == Approx(0.1 / 3.3).epsilon(1e-9));
+  // A leak of 2 sigma beyond the allowance: z 2, k 1, LEAK once S_rate passes h.
+  const LeakReport leak = s_rate(3.5, 3.5 + 2.0 * 3.3, 8);
+  CHECK(leak.rate_cusum == Approx(8.0).epsilon(1e-9));
+  CHECK(leak.state == LeakState::kLeak);
+}
