@@ -101,6 +101,11 @@ int ChildProcess::wait(std::chrono::nanoseconds timeout) {
     const pid_t r = waitpid(pid_, &status, WNOHANG);
     if (r == pid_) {
       reaped_ = true;
+      // What the child wrote just before it exited may still be in the pipes: read to EOF
+      // (bounded, since a grandchild could hold a write end open).
+      while ((out_fd_ >= 0 || err_fd_ >= 0) && std::chrono::steady_clock::now() < end) {
+        pump(std::chrono::milliseconds(20));
+      }
       return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     }
     if (std::chrono::steady_clock::now() >= end) return -1;
