@@ -49,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "plant_models/catalog.hpp"
 #include "plant_models/heat_pump/hp_params.hpp"
 #include "tests/bench/bench_stats.hpp"
 #include "tests/bench/calibrated_start.hpp"
@@ -91,6 +92,45 @@ void sample_truth(std::uint64_t seed) {
     bench::truth_overrides()[info.name] = v;
     std::printf("sampled truth: %s = %.3f\n", info.name, v);
   }
+}
+
+// Every name --set, --truth-set, --q, --std and --consider give exists: a parameter of the heat
+// pump's schema, a state of the filters' model (with --set applied, since it may augment states).
+// Otherwise a typo would silently run the defaults.
+bool names_known() {
+  const plant::ModelSchema& schema = *plant::find_schema("heat_pump_r32");
+  const auto parameter = [&](const std::string& name) {
+    return std::any_of(schema.parameters.begin(), schema.parameters.end(),
+                       [&](const plant::ParameterInfo& p) { return p.name == name; });
+  };
+  for (const auto* map : {&bench::filter_parameters(), &bench::truth_overrides()})
+    for (const auto& entry : *map)
+      if (!parameter(entry.first)) {
+        std::fprintf(stderr, "estimation_bench: %s: no parameter '%s' in heat_pump_r32\n",
+                     map == &bench::truth_overrides() ? "--truth-set" : "--set",
+                     entry.first.c_str());
+        return false;
+      }
+  const plant::ModelLayout layout =
+      plant::create_model("heat_pump_r32", bench::filter_parameters())->layout();
+  const auto state = [&](const std::string& name) {
+    return std::any_of(layout.states.begin(), layout.states.end(),
+                       [&](const plant::StateInfo& st) { return st.name == name; });
+  };
+  const auto check = [&](const char* option, const auto& map) {
+    for (const auto& entry : map)
+      if (!state(entry.first)) {
+        std::fprintf(stderr,
+                     "estimation_bench: %s: no state '%s' in the filters' model (a factor is a "
+                     "state only when augmented: --set augment_NAME=1)\n",
+                     option, entry.first.c_str());
+        return false;
+      }
+    return true;
+  };
+  return check("--q", bench::process_noise_overrides()) &&
+         check("--std", bench::initial_std_overrides()) &&
+         check("--consider", bench::consider_overrides());
 }
 
 bool parse(int argc, char** argv, Args& a) {
@@ -181,7 +221,7 @@ bool parse(int argc, char** argv, Args& a) {
     std::fprintf(stderr, "estimation_bench: --sample-truth takes the nominal truth alone\n");
     return false;
   }
-  return a.hours > 0.0 && a.period > 0.0;
+  return a.hours > 0.0 && a.period > 0.0 && names_known();
 }
 
 const char* verdict(bool met) {

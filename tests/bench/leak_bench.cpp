@@ -37,6 +37,7 @@
 // "10 % in 2 h"), (c) 10 g/h (24x, "2 % per hour"). A faster leak is found sooner: the short
 // delays are not the acceptance figures.
 // The filter and the detector are what the daemon runs (leak_scenario.hpp, daemon_settings()).
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -44,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "plant_models/catalog.hpp"
 #include "tests/bench/bench_stats.hpp"
 #include "tests/bench/leak_scenario.hpp"
 
@@ -213,9 +215,17 @@ int main(int argc, char** argv) {
       if (colon == std::string::npos) return 2;
       bench::adaptive_noise_min = std::atof(v.substr(0, colon).c_str());
       bench::adaptive_noise_max = std::atof(v.substr(colon + 1).c_str());
-    } else if (a == "--no-augment")  // the filter considers this parameter instead
-      bench::filter_parameters()["augment_" + next()] = 0;
-    else {
+    } else if (a == "--no-augment") {  // the filter considers this parameter instead
+      const std::string key = "augment_" + next();
+      const auto& params = plant::find_schema("heat_pump_r32")->parameters;
+      if (std::none_of(params.begin(), params.end(),
+                       [&](const plant::ParameterInfo& p) { return p.name == key; })) {
+        std::fprintf(stderr, "leak_bench: --no-augment: no parameter '%s' in heat_pump_r32\n",
+                     key.c_str());
+        return 2;
+      }
+      bench::filter_parameters()[key] = 0;
+    } else {
       std::fprintf(stderr,
                    "usage: leak_bench [--short] [--only abc] [--period S] [--trace-dir DIR] "
                    "[--replay DIR] [--band-hz W] [--allowance F] [--charge-noise F] "
