@@ -19,7 +19,7 @@ struct ConstrainedEnkf::Lane {
   std::size_t begin = 0, end = 0;  // its members
   std::unique_ptr<plant::ContinuousModel> model;
   std::unique_ptr<plant::Integrator> integrator;
-  std::vector<double> x, y;
+  std::vector<double> x, y, w;
   std::vector<int> active;  // rows active for this lane's members in the last constrain()
   std::size_t active_count = 0;
 };
@@ -83,6 +83,7 @@ ConstrainedEnkf::ConstrainedEnkf(const plant::ContinuousModel& model,
     lane->integrator = std::make_unique<plant::Integrator>(
         *lane->model, without_sensitivities(options.integrator));
     lane->x.assign(n_, 0.0);
+    lane->w.assign(n_, 0.0);
     lane->y.assign(m_, 0.0);
     lane->active.assign(options.projection.max_active + constraints_.rows(), -1);
     lanes_.push_back(std::move(lane));
@@ -185,12 +186,17 @@ StepStatus ConstrainedEnkf::predict(std::span<const double> u, double dt) {
     const auto I = static_cast<Eigen::Index>(i);
     for (std::size_t j = 0; j < n_; ++j)
       L.x[j] = X_(static_cast<Eigen::Index>(j), I);
+    // The process noise as a rate held over the period (see the header): w ~ N(0, Q_c / dt),
+    // integrated with the member, so a slow state moves by N(0, Q_c dt) and a stiff one keeps
+    // only what its own dynamics leave of it.
+    for (std::size_t j = 0; j < n_; ++j)
+      L.w[j] = dt > 0.0 ? std::sqrt(q_(static_cast<Eigen::Index>(j)) / dt) * normal(i) : 0.0;
+    L.integrator->set_forcing(L.w);
     ok_[i] = L.integrator->step(L.x, u, dt, {}).ok() ? 1 : 0;
+    L.integrator->set_forcing({});
     if (!ok_[i]) return;
-    for (std::size_t j = 0; j < n_; ++j) {
-      const auto J = static_cast<Eigen::Index>(j);
-      X_(J, I) = L.x[j] + std::sqrt(q_(J) * dt) * normal(i);
-    }
+    for (std::size_t j = 0; j < n_; ++j)
+      X_(static_cast<Eigen::Index>(j), I) = L.x[j];
   };
   each_member(task);
   // A member that failed is replaced by a copy of the next one that did not.

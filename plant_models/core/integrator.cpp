@@ -71,7 +71,13 @@ struct IntegratorCallbacks {
 
   static int rhs(realtype /*t*/, N_Vector y, N_Vector ydot, void* user_data) {
     Integrator& it = self(user_data);
-    return it.model_.rhs(view(y), it.u_, view(ydot));
+    const int status = it.model_.rhs(view(y), it.u_, view(ydot));
+    if (status == 0 && !it.forcing_.empty()) {
+      double* d = N_VGetArrayPointer(ydot);
+      for (std::size_t i = 0; i < it.n_; ++i)
+        d[i] += it.forcing_[i];
+    }
+    return status;
   }
 
   // CVODES asks for a Jacobian at a step's first iterate when its own copy is too old, and after

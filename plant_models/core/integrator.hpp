@@ -133,6 +133,12 @@ class Integrator {
   IntegrationResult step(std::span<double> x, std::span<const double> u, double dt,
                          std::span<double> F);
 
+  // A constant rate added to the model's right-hand side in the following step() calls, until
+  // set again (empty: none): dx/dt = f(x, u) + g. The span must outlive those calls. The model's
+  // Jacobian is the system's (g does not depend on x). For an ensemble member's process noise
+  // held over the period (ConstrainedEnkf::predict).
+  void set_forcing(std::span<const double> g) { forcing_ = g; }
+
   // Forgets the kept Jacobian and exponential: the next step() evaluates its own, whatever the
   // reuse distance (after a reset or a jump of the state the owner does not trust them).
   void forget_jacobian();
@@ -158,6 +164,7 @@ class Integrator {
   std::size_t n_;
   std::unique_ptr<Sundials> s_;
   std::span<const double> u_;                 // inputs during the current step
+  std::span<const double> forcing_;           // added to the right-hand side (set_forcing)
   std::unique_ptr<JacobianCache> jacobians_;  // J at the last state asked for
   std::unique_ptr<Transition> transition_;    // kExponential only
   // kExponential: the same options but F by CVODES's corrector, for a period whose exponentials

@@ -4,6 +4,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "daemon/estimation/ekf.hpp"
@@ -87,28 +88,70 @@ TEST_CASE("the EnKF agrees with the Kalman filter on a random walk", "[enkf]") {
   CHECK(std::abs(enkf.state()(0) - kf.state()(0)) < 0.15 * sigma);
 }
 
+TEST_CASE("the EnKF's process noise is held over the period: a stiff state forgets it", "[enkf]") {
+  // Continuous white noise of intensity q on x0' = 0 and x1' = -a x1, held as a constant rate
+  // over each period (zero-order hold): after dt from a known state the slow state's variance is
+  // q^2 dt, the stiff one's q^2 dt ((1 - e^(-a dt)) / (a dt))^2, a millionth of it here. Added as
+  // a kick after the integration, both were q^2 dt.
+  const plant::AdModel<test::SlowAndStiff> model{test::SlowAndStiff{}};
+  const double q = 0.2, dt = 1.0, a = test::SlowAndStiff{}.rate;
+  est::EnkfOptions o;
+  o.members = 2000;
+  o.inflation = 1.0;
+  o.constrained = false;
+  est::ConstrainedEnkf enkf(model, std::vector<double>{q, q}, 2, o);
+  enkf.reset(std::vector<double>{1.0, 0.0}, std::vector<double>{0.0, 0.0});
+  REQUIRE(enkf.predict({}, dt) == est::StepStatus::kOk);
+  const double slow = q * q * dt;
+  const double stiff = slow * std::pow((1.0 - std::exp(-a * dt)) / (a * dt), 2);
+  INFO("variances: slow " << enkf.covariance()(0, 0) << " (" << slow << "), stiff "
+                          << enkf.covariance()(1, 1) << " (" << stiff << ")");
+  // 2000 members: a sample variance within ~sqrt(2/N) = 3 % of the true one.
+  CHECK(enkf.covariance()(0, 0) == Approx(slow).epsilon(0.12));
+  CHECK(enkf.covariance()(1, 1) == Approx(stiff).epsilon(0.12));
+  CHECK(enkf.state()(0) == Approx(1.0).margin(4.0 * std::sqrt(slow / 2000.0)));
+}
+
 TEST_CASE("the EnKF tracks the zone: errors within its own uncertainty", "[enkf]") {
+  // The readings are a sinusoid no zone produces, so the innovations stay large and an ensemble's
+  // sampling error in its gain (a few % with 400 members) moves the weakly observed states (the
+  // building mass, the gains) by up to a sigma in a single run: 12 ensembles (seeds), their mean
+  // within a quarter sigma of the Kalman filter's, their spread within a sigma, each variance
+  // within 25 %. (Checked on one seed, within half a sigma, the test held for a few seeds only:
+  // seed 2's building mass was 1.2 sigma off, seed 11's gains 1.0.)
   const plant::AdModel<ZoneRc> model{ZoneRc(ZoneRc::Params{})};
   const std::vector<double> q{0.01, 0.002, 2.0};
-  est::EnkfOptions eo;
-  eo.members = 400;
-  eo.inflation = 1.0;
-  eo.nis_gate = 1e12;
-  eo.robust_threshold = 0.0;
-  eo.constrained = false;
-  est::ConstrainedEnkf enkf(model, q, 1, eo);
   est::EkfOptions ko;
   ko.nis_gate = 1e12;
   ko.robust_threshold = 0.0;  // both: every reading at full weight
   est::Ekf kf(model, q, 1, ko);
-  const Run a = run_zone(kf), b = run_zone(enkf);
+  const Run a = run_zone(kf);
+  constexpr int kSeeds = 12;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero(), sum_sq = Eigen::Vector3d::Zero();
+  for (int seed = 1; seed <= kSeeds; ++seed) {
+    est::EnkfOptions eo;
+    eo.members = 400;
+    eo.inflation = 1.0;
+    eo.nis_gate = 1e12;
+    eo.robust_threshold = 0.0;
+    eo.constrained = false;
+    eo.seed = static_cast<std::uint64_t>(seed);
+    est::ConstrainedEnkf enkf(model, q, 1, eo);
+    const Run b = run_zone(enkf);
+    for (int i = 0; i < 3; ++i) {
+      const double d = (b.x(i) - a.x(i)) / std::sqrt(a.P(i, i));
+      sum(i) += d;
+      sum_sq(i) += d * d;
+      INFO("seed " << seed << ", state " << i << ": KF " << a.x(i) << " +- " << std::sqrt(a.P(i, i))
+                   << ", EnKF " << b.x(i) << " +- " << std::sqrt(b.P(i, i)));
+      CHECK(b.P(i, i) == Approx(a.P(i, i)).epsilon(0.25));
+    }
+  }
   for (int i = 0; i < 3; ++i) {
-    const double sigma = std::sqrt(a.P(i, i));
-    INFO("state " << i << ": KF " << a.x(i) << " +- " << sigma << ", EnKF " << b.x(i) << " +- "
-                  << std::sqrt(b.P(i, i)));
-    // Different (both valid) process-noise discretisations and sampling: within half a sigma.
-    CHECK(std::abs(a.x(i) - b.x(i)) < 0.5 * sigma);
-    CHECK(b.P(i, i) == Approx(a.P(i, i)).epsilon(0.25));
+    INFO("state " << i << ": EnKF - KF over the seeds, mean " << sum(i) / kSeeds << " sigma, RMS "
+                  << std::sqrt(sum_sq(i) / kSeeds));
+    CHECK(std::abs(sum(i) / kSeeds) < 0.25);
+    CHECK(std::sqrt(sum_sq(i) / kSeeds) < 1.0);
   }
 }
 

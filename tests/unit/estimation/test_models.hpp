@@ -30,6 +30,32 @@ struct RandomWalk {
   }
 };
 
+// Two decoupled states: x0' = 0 (slow: a random walk once noise is added) and x1' = -rate x1
+// (stiff: it forgets a disturbance in 1 / rate seconds). Outputs: both states.
+struct SlowAndStiff {
+  double rate = 1000.0;  // 1/s
+  plant::ModelLayout layout() const {
+    plant::ModelLayout l;
+    for (const char* name : {"slow", "stiff"}) {
+      l.states.push_back(plant::StateInfo{.name = name, .unit = "1", .abs_tol = 1e-12});
+      l.outputs.push_back(plant::SignalInfo{.name = name, .unit = "1"});
+    }
+    return l;
+  }
+  template <class S>
+  int rhs(std::span<const S> x, std::span<const double>, std::span<S> f) const {
+    f[0] = S(0.0);
+    f[1] = -rate * x[1];
+    return plant::kModelOk;
+  }
+  template <class S>
+  int outputs(std::span<const S> x, std::span<const double>, std::span<S> y) const {
+    y[0] = x[0];
+    y[1] = x[1];
+    return plant::kModelOk;
+  }
+};
+
 // A random walk with a second output, twice the state, that the model gets wrong by a
 // structural error of 0.3 + 10 % (SignalInfo::model_error, model_error_rel).
 struct StructuralError : RandomWalk {

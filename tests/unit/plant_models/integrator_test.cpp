@@ -8,6 +8,7 @@
 #include "finite_difference.hpp"
 #include "plant_models/core/ad_model.hpp"
 #include "plant_models/zone/zone_rc.hpp"
+#include "tests/unit/estimation/test_models.hpp"
 
 using namespace hvac_twin::plant;
 
@@ -156,6 +157,24 @@ TEST_CASE("sensitivities of a stiff problem equal finite differences of the solu
   // Mass conservation carries to the sensitivities: each column of F sums to 1.
   for (int c = 0; c < 3; ++c)
     CHECK(F[c * 3] + F[c * 3 + 1] + F[c * 3 + 2] == Approx(1.0));
+}
+
+TEST_CASE("a forcing adds a constant rate to the model until it is cleared", "[integrator]") {
+  // x0' = g0, x1' = -a x1 + g1: x0(t) = x0 + g0 t, x1(t) = e^(-a t) x1 + g1 (1 - e^(-a t)) / a.
+  const AdModel<hvac_twin::test::SlowAndStiff> model{hvac_twin::test::SlowAndStiff{}};
+  const double a = hvac_twin::test::SlowAndStiff{}.rate, dt = 0.01;
+  Integrator integ(model, IntegratorOptions{});
+  const std::vector<double> g{2.0, 3.0};
+  std::vector<double> x{1.0, 1.0};
+  integ.set_forcing(g);
+  REQUIRE(integ.step(x, {}, dt, {}).ok());
+  CHECK(x[0] == Approx(1.0 + 2.0 * dt).epsilon(1e-9));
+  CHECK(x[1] == Approx(std::exp(-a * dt) + 3.0 * (1.0 - std::exp(-a * dt)) / a).epsilon(1e-5));
+  integ.set_forcing({});
+  const double x1 = x[1];
+  REQUIRE(integ.step(x, {}, dt, {}).ok());
+  CHECK(x[0] == Approx(1.0 + 2.0 * dt).epsilon(1e-9));
+  CHECK(x[1] == Approx(std::exp(-a * dt) * x1).epsilon(1e-4));
 }
 
 TEST_CASE("a recoverable model error makes CVODES retry, a fatal one fails the step",
