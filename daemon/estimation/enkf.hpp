@@ -14,7 +14,7 @@
 // --filters enkf, the same draws; nominal / mismatched / biased sensor): evaporator heat flow
 // error 166 / 168 / 147 W -> 75 / 93 / 79 W, condenser 55 / 71 / 46 W -> 30 / 68 / 26 W, NEES
 // 22.3 / 17.5 / 40.2 -> 9.8 / 10.6 / 4.3, the charge +1.84 / +0.03 / +1.06 % -> +2.38 / +1.41 /
-// +1.87 %, the step's median 12-20 % shorter. A member whose integration fails is replaced by a
+// +1.87 %, the step's median 11-20 % shorter. A member whose integration fails is replaced by a
 // copy of another member (counted as a predict failure).
 // Update: each available measurement is gated against the ensemble (innovation z - mean h,
 // S = ensemble variance of h + R); the accepted ones update every member with the ensemble
