@@ -19,7 +19,9 @@ JacobianCache::JacobianCache(const ContinuousModel& model, std::size_t n)
       m_(model.layout().inputs.size()) {
   const auto& states = model.layout().states;
   for (std::size_t i = 0; i < n; ++i)
-    scale_[i] = i < states.size() ? std::abs(states[i].initial_std) : 0.0;
+    scale_[i] = i >= states.size()            ? 0.0
+                : states[i].reuse_scale > 0.0 ? states[i].reuse_scale
+                                              : std::abs(states[i].initial_std);
   const auto& inputs = model.layout().inputs;
   for (std::size_t i = 0; i < m_; ++i)
     u_scale_[i] = std::abs(inputs[i].reuse_scale);

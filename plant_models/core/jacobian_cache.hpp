@@ -4,7 +4,8 @@
 //
 // The key is the state's bit pattern: a request at exactly the state of the last evaluation
 // returns the stored matrix. get_near() also returns it for a state within a given distance of
-// the key, measured per state in units of its scale (the layout's initial_std): the integrator's
+// the key, measured per state in units of its scale (the layout's reuse_scale, else its
+// initial_std): the integrator's
 // optional Jacobian reuse (IntegratorOptions::jacobian_reuse_sigma). The inputs u are checked
 // only by begin(), which the owner calls whenever u may have changed, i.e. at the start of every
 // Integrator::step(): it forgets the matrix unless reuse is on and every input is within the

@@ -60,6 +60,11 @@ struct StateInfo {
   // on the innovations of whatever else the model gets wrong. -1: always estimable.
   int excited_by = -1;
   double excitation_min = 0.0;
+  // The unit of the distance within which a model Jacobian evaluated elsewhere is reused
+  // (plant::JacobianCache, the integrator's jacobian_reuse_sigma) [unit]; 0: initial_std. A state
+  // the Jacobian barely depends on (it enters the model almost linearly) gets a wider one, so
+  // that its moves alone do not cost a Jacobian.
+  double reuse_scale = 0.0;
   // A property of the unit, not of its operating state (the refrigerant charge, the leak rate,
   // a coil's fouling): kept from a checkpoint too old for the rest of the state to be resumed.
   bool persistent = false;

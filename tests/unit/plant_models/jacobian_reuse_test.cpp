@@ -5,6 +5,7 @@
 // moves further, and never keeps them at a distance of 0. On the settled heat pump, where a unit
 // in steady operation spends its time.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <vector>
 
 #include "tests/support/transition_distance.hpp"
@@ -85,4 +86,44 @@ TEST_CASE("settled heat pump: one Jacobian and one exponential serve period afte
     CHECK(fresh.last_stats().model_jacobians >= 1);
     CHECK(fresh.last_stats().exponentials >= 1);
   }
+}
+
+TEST_CASE("states the Jacobian barely depends on: their moves alone keep the Jacobian",
+          "[integrator][reuse]") {
+  // The layout widens the reuse unit of a state only where the claim holds: at the settled
+  // nominal point, a move of 2 initial sigma of such a state changes the model's Jacobian (in
+  // the states' own units, D^-1 J D with D their initial sigmas) by less than 1e-4 of itself,
+  // while a 0.1-sigma move of an evaporator cell's enthalpy, which the reuse distance is made
+  // for, changes it by more than 1e-3.
+  const test::HeatPumpRig rig(test::demo_structure());
+  std::vector<double> x = rig.start();
+  const std::vector<double> u = test::nominal_inputs();
+  rig.run(x, u, 3600.0);
+  const auto& states = rig.model->layout().states;
+  const std::size_t n = x.size();
+  std::vector<double> f(n), J0(n * n), J1(n * n);
+  REQUIRE(rig.model->rhs_jacobian(x, u, f, J0) == plant::kModelOk);
+  const auto change = [&](std::size_t i, double sigmas) {
+    std::vector<double> xp = x;
+    xp[i] += sigmas * states[i].initial_std;
+    REQUIRE(rig.model->rhs_jacobian(xp, u, f, J1) == plant::kModelOk);
+    double d = 0.0, b = 0.0;
+    for (std::size_t c = 0; c < n; ++c)
+      for (std::size_t r = 0; r < n; ++r) {
+        const double w = states[c].initial_std / states[r].initial_std;
+        d += std::pow(w * (J1[c * n + r] - J0[c * n + r]), 2);
+        b += std::pow(w * J0[c * n + r], 2);
+      }
+    return std::sqrt(d / b);
+  };
+  int widened = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(states[i].reuse_scale > states[i].initial_std)) continue;
+    ++widened;
+    INFO(states[i].name);
+    CHECK(change(i, 2.0) < 1e-4);
+  }
+  CHECK(widened == 4);  // the zone's temperatures, its gains, the leak rate
+  const auto& l = rig.hp->slots();
+  CHECK(change(l.h_evap[l.h_evap.size - 2], 0.1) > 1e-3);
 }
