@@ -1,9 +1,9 @@
 // Jacobian reuse across periods (IntegratorOptions::jacobian_reuse_sigma with the exponential F):
 // the integrator keeps one model Jacobian, and the matrix exponential made of it, from one step()
-// to the next while no state has moved beyond the reuse distance (in units of its initial_std)
-// and no input beyond it in units of its reuse_scale; it evaluates them afresh when an input
-// moves further, and never keeps them at a distance of 0. On the settled heat pump, where a unit
-// in steady operation spends its time.
+// to the next while no state has moved beyond the reuse distance (in units of its reuse_scale,
+// else its initial_std) and no input beyond it in units of its reuse_scale; it evaluates them
+// afresh when an input moves further, and never keeps them at a distance of 0. On the settled
+// heat pump, where a unit in steady operation spends its time.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <vector>
