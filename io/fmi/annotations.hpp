@@ -6,7 +6,7 @@
 //
 //   in a state's <ScalarVariable><Annotations>:
 //     <State initialStd= processNoise= [augmented= consider= calibrate= heldWhileSettling=
-//            persistent="true"] [excitedBy="<input name>" excitationMin=]/>
+//            persistent="true"] [reuseScale=] [excitedBy="<input name>" excitationMin=]/>
 //   in an output's:
 //     <Output modelError= modelErrorRel=/>
 //   in <VendorAnnotations>, the constraints beyond the state bounds:

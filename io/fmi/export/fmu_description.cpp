@@ -130,6 +130,7 @@ std::string state_annotation(const plant::ModelLayout& l, const plant::StateInfo
                   flag("consider", s.consider) + flag("calibrate", s.calibrate) +
                   flag("heldWhileSettling", s.held_while_settling) +
                   flag("persistent", s.persistent);
+  if (s.reuse_scale > 0.0) a += " reuseScale=\"" + number(s.reuse_scale) + "\"";
   if (s.excited_by >= 0 && static_cast<std::size_t>(s.excited_by) < l.inputs.size())
     a += " excitedBy=\"" + escaped(l.inputs[static_cast<std::size_t>(s.excited_by)].name) +
          "\" excitationMin=\"" + number(s.excitation_min) + "\"";

@@ -141,6 +141,7 @@ void annotate_state(const FmuVariable& v, const plant::ModelLayout& layout, plan
   if (v.tool.empty()) return;
   s.initial_std = tool_number(v, "initialStd", s.initial_std);
   s.process_noise = tool_number(v, "processNoise", s.process_noise);
+  s.reuse_scale = tool_number(v, "reuseScale", s.reuse_scale);
   s.augmented = tool_flag(v, "augmented");
   s.consider = tool_flag(v, "consider");
   s.calibrate = tool_flag(v, "calibrate");
