@@ -159,7 +159,9 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions&
     }
     return false;
   };
-  const bool solved = (cache_valid_ && newton(cache_pc_, cache_pe_)) || newton(2.5e6, 0.9e6) ||
+  double pc0 = 0.0, pe0 = 0.0;
+  const bool solved = (predicted_pressures(in, pc0, pe0) && newton(pc0, pe0)) ||
+                      (cache_valid_ && newton(cache_pc_, cache_pe_)) || newton(2.5e6, 0.9e6) ||
                       newton(1.5e6, 0.6e6) || newton(4.0e6, 1.5e6);
   cache_valid_ = solved;
   if (!solved) return kModelRecoverable;
@@ -174,6 +176,56 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions&
     jac = cache_jac_;
   }
   return kModelOk;
+}
+
+void HeatPumpR32::store_linearisation(const SideInputs<double>& in, const Eval<double>& e,
+                                      const std::array<double, 4>& jac) const {
+  const std::size_t N = n_;
+  Linearisation& l = lin_;
+  l.at = in;
+  l.p_cond = e.p_cond;
+  l.p_evap = e.p_evap;
+  l.jac = jac;
+  // r_cond = V_dl rho_dl + V_ll rho_ll + sum of the condenser cells' masses - m_cond, and
+  // r_evap = V_sl rho_sl + sum of the evaporator cells' masses - (charge - m_cond); cell k's mass
+  // depends on its inlet enthalpy (the upstream state) and its own.
+  for (std::size_t k = 0; k < N; ++k) {
+    l.cond_h[k] = e.cond[k].mass_out + (k + 1 < N ? e.cond[k + 1].mass_in : 0.0);
+    l.evap_h[k] = e.evap[k].mass_out + (k + 1 < N ? e.evap[k + 1].mass_in : 0.0);
+  }
+  l.cond_dl = p_.discharge_line_volume * e.dl.rho_h + e.cond[0].mass_in;
+  l.cond_ll = p_.liquid_line_volume * e.ll.rho_h;
+  l.evap_ll = e.evap[0].mass_in;
+  l.evap_sl = p_.suction_line_volume * e.sl.rho_h;
+  l.evap_air = 0.0;
+  for (std::size_t k = 0; k < N; ++k)
+    l.evap_air += e.evap[k].mass_air;
+  l.valid = std::isfinite(l.cond_dl + l.cond_ll + l.evap_ll + l.evap_sl + l.evap_air);
+}
+
+bool HeatPumpR32::predicted_pressures(const SideInputs<double>& in, double& p_cond,
+                                      double& p_evap) const {
+  const Linearisation& l = lin_;
+  if (!l.valid) return false;
+  const SideInputs<double>& a = l.at;
+  double rc =
+      l.cond_dl * (in.h_dl - a.h_dl) + l.cond_ll * (in.h_ll - a.h_ll) - (in.m_cond - a.m_cond);
+  double re = l.evap_ll * (in.h_ll - a.h_ll) + l.evap_sl * (in.h_sl - a.h_sl) +
+              l.evap_air * (in.t_air - a.t_air) - ((in.charge - in.m_cond) - (a.charge - a.m_cond));
+  for (std::size_t k = 0; k < n_; ++k) {
+    rc += l.cond_h[k] * (in.h_cond[k] - a.h_cond[k]);
+    re += l.evap_h[k] * (in.h_evap[k] - a.h_evap[k]);
+  }
+  const auto& J = l.jac;
+  const double det = J[0] * J[3] - J[1] * J[2];
+  const double dpc = -(J[3] * rc - J[1] * re) / det;
+  const double dpe = -(J[0] * re - J[2] * rc) / det;
+  if (!std::isfinite(dpc) || !std::isfinite(dpe) || std::abs(dpc) > 0.05 * l.p_cond ||
+      std::abs(dpe) > 0.05 * l.p_evap)
+    return false;
+  p_cond = l.p_cond + dpc;
+  p_evap = l.p_evap + dpe;
+  return true;
 }
 
 std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,

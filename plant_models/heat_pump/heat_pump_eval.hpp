@@ -313,6 +313,7 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
     double rc = 0.0, re = 0.0;
     if (const int st = solve_pressures(si, c, pc, pe, J, false); st != kModelOk) return st;
     if (side_masses(pc, pe, si, c, rc, re, &e) != kModelOk) return kModelRecoverable;
+    store_linearisation(si, e, J);
   } else {
     // Pressures in double (Newton, cached across the chunks of one Jacobian); their tangents by
     // the implicit-function theorem, dp/dx = -J^-1 dR/dx at fixed pressures. Every property is

@@ -323,7 +323,13 @@ TEST_CASE("the constrained EKF on the heat-pump FMU gives the built-in model's e
   INFO("largest state difference " << worst_x << " initial sigmas (the filter moved " << moved
                                    << "), largest output sigma difference " << worst_sigma
                                    << " of itself");
+  // Agreement to round-off, amplified: the FMU evaluates the model in its own order, so each
+  // pressure solve starts from another warm start and ends another round-off (1e-15) away, and
+  // 30 gated, constrained updates magnify that. Measured: 1.7e-7 / 3.7e-7 (states / sigmas)
+  // with a zero-order warm start, 5.7e-7 / 1.3e-6 with the first-order one (stop 53); a
+  // mismatch that is not round-off, the FMU's import ignoring the states' Jacobian-reuse unit,
+  // 0.023 / 0.031.
   CHECK(moved > 0.1);
-  CHECK(worst_x < 1e-6);
-  CHECK(worst_sigma < 1e-6);
+  CHECK(worst_x < 1e-5);
+  CHECK(worst_sigma < 1e-5);
 }
