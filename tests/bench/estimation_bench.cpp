@@ -98,14 +98,9 @@ void sample_truth(std::uint64_t seed) {
 // pump's schema, a state of the filters' model (with --set applied, since it may augment states).
 // Otherwise a typo would silently run the defaults.
 bool names_known() {
-  const plant::ModelSchema& schema = *plant::find_schema("heat_pump_r32");
-  const auto parameter = [&](const std::string& name) {
-    return std::any_of(schema.parameters.begin(), schema.parameters.end(),
-                       [&](const plant::ParameterInfo& p) { return p.name == name; });
-  };
   for (const auto* map : {&bench::filter_parameters(), &bench::truth_overrides()})
     for (const auto& entry : *map)
-      if (!parameter(entry.first)) {
+      if (!bench::has_parameter(entry.first)) {
         std::fprintf(stderr, "estimation_bench: %s: no parameter '%s' in heat_pump_r32\n",
                      map == &bench::truth_overrides() ? "--truth-set" : "--set",
                      entry.first.c_str());

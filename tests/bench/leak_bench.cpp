@@ -217,9 +217,7 @@ int main(int argc, char** argv) {
       bench::adaptive_noise_max = std::atof(v.substr(colon + 1).c_str());
     } else if (a == "--no-augment") {  // the filter considers this parameter instead
       const std::string key = "augment_" + next();
-      const auto& params = plant::find_schema("heat_pump_r32")->parameters;
-      if (std::none_of(params.begin(), params.end(),
-                       [&](const plant::ParameterInfo& p) { return p.name == key; })) {
+      if (!bench::has_parameter(key)) {
         std::fprintf(stderr, "leak_bench: --no-augment: no parameter '%s' in heat_pump_r32\n",
                      key.c_str());
         return 2;
