@@ -241,6 +241,15 @@ class HeatPumpTruth {
   std::normal_distribution<double> noise_{0.0, 1.0};
 };
 
+// Whether the heat-pump model has a parameter of this name (the benchmarks' name options refuse
+// what it has not).
+inline bool has_parameter(const std::string& name) {
+  const auto& params = plant::find_schema("heat_pump_r32")->parameters;
+  for (const plant::ParameterInfo& p : params)
+    if (p.name == name) return true;
+  return false;
+}
+
 // The filters' model: the nominal parameters at the default cell count with what the daemon's
 // heat-pump configuration augments (config/demo-heat-pump.json): both coils' air-side UA, the
 // compressor's volumetric and isentropic efficiencies, the void-fraction exponent and both
@@ -252,15 +261,6 @@ class HeatPumpTruth {
 // updates pushed the state off the model's slow manifold every cycle (4x the integrator steps)
 // and the heat flows 45-128 % off; on the mismatched truth, without the compressor factors the
 // suction pressure was gate-rejected in 99.8 % of cycles.
-// Whether the heat-pump model has a parameter of this name (the benchmarks' name options refuse
-// what it has not).
-inline bool has_parameter(const std::string& name) {
-  const auto& params = plant::find_schema("heat_pump_r32")->parameters;
-  for (const plant::ParameterInfo& p : params)
-    if (p.name == name) return true;
-  return false;
-}
-
 inline plant::ParameterMap& filter_parameters() {
   static plant::ParameterMap p{
       {"augment_fouling", 1},          {"augment_evap_ua_factor", 1},
