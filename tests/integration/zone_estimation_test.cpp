@@ -210,6 +210,7 @@ TEST_CASE("a frozen zone sensor is STUCK, not fused, logged once, and usable aga
 
   const Truth truth(stack.path("truth-1.csv"));
   int stuck = 0, stuck_fused = 0, stuck_outside = 0, after = 0, after_fused = 0;
+  int after_not_good = 0;
   double first_stuck_h = 1e9;
   for (const auto& s : stack.samples()) {
     if (s["topic"] != "observation" || s["point"] != "zone_temp") continue;
@@ -221,13 +222,21 @@ TEST_CASE("a frozen zone sensor is STUCK, not fused, logged once, and usable aga
       if (h < frozen_from_h || h > frozen_to_h + 0.1) ++stuck_outside;
       first_stuck_h = std::min(first_stuck_h, h);
     } else if (h > frozen_to_h + 0.25) {
+      // Usable again: a reading polled in time is fused. One the poll did not bring in time
+      // (STALE: a host that stalls the 0.1 s wall period, seen once in CI with 4 of 37 so) is
+      // not fused by design, and is counted apart.
+      if (s["quality"] != "GOOD") {
+        ++after_not_good;
+        continue;
+      }
       ++after;
       after_fused += s["fused"].get<bool>() ? 1 : 0;
     }
   }
   INFO("STUCK " << stuck << " (fused " << stuck_fused << ", outside the window " << stuck_outside
                 << "), first at " << first_stuck_h << " h; after the window " << after
-                << " samples, fused " << after_fused);
+                << " good samples, fused " << after_fused << " (" << after_not_good
+                << " not good)");
   CHECK(stuck >= 10);
   CHECK(stuck_fused == 0);
   CHECK(stuck_outside == 0);
