@@ -129,10 +129,8 @@ int HeatPumpR32::solve_pressures(const SideInputs<double>& in, const Conditions&
       D r1, r2;
       std::array<double, 4> J{};
       if (!residual_jacobian(pc, pe, r1, r2, J)) return false;
-      const double det = J[0] * J[3] - J[1] * J[2];
-      if (!std::isfinite(det) || det == 0.0) return false;
-      double dpc = -(J[3] * r1.v - J[1] * r2.v) / det;
-      double dpe = -(J[0] * r2.v - J[2] * r1.v) / det;
+      double dpc = 0.0, dpe = 0.0;
+      if (!pressure_move(J, r1.v, r2.v, dpc, dpe)) return false;
       const double limit = std::min({1.0, 0.25 * pc / std::abs(dpc), 0.25 * pe / std::abs(dpe)});
       dpc *= limit;
       dpe *= limit;
@@ -216,12 +214,9 @@ bool HeatPumpR32::predicted_pressures(const SideInputs<double>& in, double& p_co
     rc += l.cond_h[k] * (in.h_cond[k] - a.h_cond[k]);
     re += l.evap_h[k] * (in.h_evap[k] - a.h_evap[k]);
   }
-  const auto& J = l.jac;
-  const double det = J[0] * J[3] - J[1] * J[2];
-  const double dpc = -(J[3] * rc - J[1] * re) / det;
-  const double dpe = -(J[0] * re - J[2] * rc) / det;
-  if (!std::isfinite(dpc) || !std::isfinite(dpe) || std::abs(dpc) > 0.05 * l.p_cond ||
-      std::abs(dpe) > 0.05 * l.p_evap)
+  double dpc = 0.0, dpe = 0.0;
+  if (!pressure_move(l.jac, rc, re, dpc, dpe) || !std::isfinite(dpc) || !std::isfinite(dpe) ||
+      std::abs(dpc) > 0.05 * l.p_cond || std::abs(dpe) > 0.05 * l.p_evap)
     return false;
   p_cond = l.p_cond + dpc;
   p_evap = l.p_evap + dpe;

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -182,6 +183,17 @@ class HeatPumpR32 {
   template <class S>
   S factor(std::span<const S> x, hp::Factor f) const {
     return L_.factor[f] != hp::kNone ? x[L_.factor[f]] : S(p_.factor[f]);
+  }
+  // The pressures' move (dpc, dpe) = -J^-1 (rc, re) for the mass residuals (rc, re) and their
+  // 2 x 2 Jacobian J in (p_cond, p_evap), row-major; false if J is singular. The Newton step,
+  // the first-order start and the implicit-function tangents all solve with it.
+  static bool pressure_move(const std::array<double, 4>& J, double rc, double re, double& dpc,
+                            double& dpe) {
+    const double det = J[0] * J[3] - J[1] * J[2];
+    if (!std::isfinite(det) || det == 0.0) return false;
+    dpc = -(J[3] * rc - J[1] * re) / det;
+    dpe = -(J[0] * re - J[2] * rc) / det;
+    return true;
   }
   // Solves the pressures in double precision (warm-started, cached by the inputs). jac: the mass
   // residuals' derivatives in the pressures, taken at the solution itself if jac_at_solution

@@ -346,12 +346,9 @@ int HeatPumpR32::evaluate(std::span<const S> x, std::span<const double> u, Eval<
       pew.d[K + 1] = 1.0;
       Eval<W> ew;
       if (side_masses(pcw, pew, wi, c, rcw, rew, &ew) != kModelOk) return kModelRecoverable;
-      const double det = J[0] * J[3] - J[1] * J[2];
-      std::array<double, K> dpc{}, dpe{};
-      for (std::size_t j = 0; j < static_cast<std::size_t>(K); ++j) {
-        dpc[j] = -(J[3] * rcw.d[j] - J[1] * rew.d[j]) / det;
-        dpe[j] = -(J[0] * rew.d[j] - J[2] * rcw.d[j]) / det;
-      }
+      std::array<double, K> dpc{}, dpe{};  // J is the solve's, nonsingular
+      for (std::size_t j = 0; j < static_cast<std::size_t>(K); ++j)
+        pressure_move(J, rcw.d[j], rew.d[j], dpc[j], dpe[j]);
       map_side(ew, e, [&](const W& w) {
         S v(w.v);
         for (std::size_t j = 0; j < static_cast<std::size_t>(K); ++j)
