@@ -33,11 +33,15 @@ namespace {
 struct ErrorStats {
   int n = 0;
   double sum_abs = 0.0, max_abs = 0.0, max_ratio = 0.0, last_sigma = 0.0;
-  void add(double err, double sigma) {
+  double max_ratio_h = 0.0;  // the model time of the sample with the largest |err|/sigma [h]
+  void add(double err, double sigma, double model_h) {
     ++n;
     sum_abs += std::abs(err);
     max_abs = std::max(max_abs, std::abs(err));
-    max_ratio = std::max(max_ratio, std::abs(err) / sigma);
+    if (std::abs(err) / sigma > max_ratio) {
+      max_ratio = std::abs(err) / sigma;
+      max_ratio_h = model_h;
+    }
     last_sigma = sigma;
   }
   double mean_abs() const { return n > 0 ? sum_abs / n : 0.0; }
@@ -96,24 +100,29 @@ TEST_CASE("estimated internal gains and mass temperature follow the simulated tr
     const bool settled =
         model_t >= 6.0 * 3600.0 && std::fmod(model_t, 3.0 * 3600.0) >= 2.0 * 3600.0;
     if (!settled) continue;
-    if (name == "internal_gains") gains.add(v - truth.at(t, "state:Q_int"), sigma);
-    if (name == "mass_temperature") mass.add(v - truth.at(t, "state:T_mass"), sigma);
-    if (name == "zone_air_temperature") air.add(v - truth.at(t, "state:T_air"), sigma);
+    const double h = model_t / 3600.0;
+    if (name == "internal_gains") gains.add(v - truth.at(t, "state:Q_int"), sigma, h);
+    if (name == "mass_temperature") mass.add(v - truth.at(t, "state:T_mass"), sigma, h);
+    if (name == "zone_air_temperature") air.add(v - truth.at(t, "state:T_air"), sigma, h);
   }
   INFO("cycles " << estimates << ", GOOD " << good);
   INFO("internal gains: mean |err| " << gains.mean_abs() << " W, max " << gains.max_abs
-                                     << " W, max |err|/sigma " << gains.max_ratio
+                                     << " W, max |err|/sigma " << gains.max_ratio << " at "
+                                     << gains.max_ratio_h << " h"
                                      << ", final sigma " << gains.last_sigma << " W");
   INFO("mass temperature: mean |err| " << mass.mean_abs() << " K, max " << mass.max_abs
-                                       << " K, max |err|/sigma " << mass.max_ratio);
+                                       << " K, max |err|/sigma " << mass.max_ratio << " at "
+                                       << mass.max_ratio_h << " h");
   INFO("air temperature: mean |err| " << air.mean_abs() << " K, max " << air.max_abs << " K");
   INFO("last health: " << last_health.dump());
   REQUIRE(gains.n > 60);
-  // The bias part of the error is the time acceleration: at 1200x the simulator's model clock
-  // falls behind the daemon's (which counts ticks) when the machine is busy, and a few ms of
-  // lag are seconds of model time. Seen, same seed: ~143 W on an idle machine, 211-215 W with
-  // the machine loaded (release) and in ASan/UBSan builds. The gains levels are 100-1000 W, so
-  // a broken estimator is far outside either bound; the normalised checks below hold in all.
+  // Seen, same seed: mean |err| ~143 W on an idle machine, 211-215 W with the machine loaded
+  // (release) and in ASan/UBSan builds. Stop 54 measured 176 W beside two CPU hogs, 184 W with
+  // the daemon stopped for 50 ms every 1.5 s, and 202 W at 600x on an idle machine: the spread
+  // is not the time acceleration, and stalls of the daemon or (80 ms) of the simulator left the
+  // max |err|/sigma at 2.0-2.3. One fresh-clone CI run saw 3.81 (mean 187 W) and was not
+  // reproduced; the failure message gives the model hour of the worst sample. The gains levels
+  // are 100-1000 W, so a broken estimator is far outside either bound.
   CHECK(gains.mean_abs() < (HVAC_TWIN_SANITIZED_BUILD ? 300.0 : 250.0));
   CHECK(gains.max_ratio < 3.0);
   CHECK(mass.mean_abs() < 0.3);
@@ -171,8 +180,10 @@ TEST_CASE("estimator.type selects the filter the daemon runs, end to end", "[int
       if (s["quality"] == "GOOD") ++good;
       cold.push_back((s["flags"].get<std::uint32_t>() & hvac_twin::dds::kFlagColdStart) != 0);
       const auto t = s["timestamp_ns"].get<std::int64_t>();
-      if (truth.model_time(t) < 3600.0) continue;
-      mass.add(s["value"].get<double>() - truth.at(t, "state:T_mass"), s["sigma"]);
+      const double model_t = truth.model_time(t);
+      if (model_t < 3600.0) continue;
+      mass.add(s["value"].get<double>() - truth.at(t, "state:T_mass"), s["sigma"],
+               model_t / 3600.0);
     }
     INFO("GOOD " << good << ", mass temperature mean |err| " << mass.mean_abs() << " K");
     CHECK(good > 60);
