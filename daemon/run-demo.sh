@@ -15,7 +15,10 @@ logs="$build/demo"
 mkdir -p "$logs"
 cd "$logs"  # the demo's state directory is relative: it lands here
 
-sim_args=(--config "$config" --truth-csv "$logs/truth.csv")
+# The simulated plant keeps its place across runs of the demo, as the daemon's checkpoint does
+# (demo-state/): a restarted demo is a restarted daemon on a plant that stood still meanwhile,
+# not one resumed against a plant that started its day over. Remove $logs to start both over.
+sim_args=(--config "$config" --truth-csv "$logs/truth.csv" --state "$logs/plant.state")
 shown='.'  # every line
 if grep -q '"heat_pump_r32"' "$config"; then
   sim_args+=(--set cond_ua_air=700)  # the truth's outdoor coil is 7 % fouled
@@ -33,7 +36,15 @@ trap 'exit 0' INT TERM
 
 "$build/tests/simulator/hvac-twin-sim" "${sim_args[@]}" >"$logs/sim.log" 2>&1 &
 pids+=($!)
-sleep 0.5
+for _ in $(seq 100); do  # serving, or stopped with the reason in its log
+  grep -q "Modbus TCP" "$logs/sim.log" && break
+  if ! kill -0 "${pids[0]}" 2>/dev/null; then
+    echo "hvac-twin demo: the plant simulator stopped:" >&2
+    cat "$logs/sim.log" >&2
+    exit 1
+  fi
+  sleep 0.1
+done
 # Ctrl-C reaches every process of the demo; the daemon's log filter ignores it and ends when the
 # daemon, shutting down cleanly (its last checkpoint saved), closes its stderr.
 "$build/daemon/runtime/hvac-twind" --config "$config" \

@@ -19,7 +19,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <istream>
 #include <numbers>
+#include <ostream>
 #include <random>
 #include <stdexcept>
 
@@ -87,6 +89,15 @@ class HeatPumpScenario final : public Scenario {
     u[kValveOpening] = valve_;
     u[kIndoorFan] = day ? 1.0 : 0.7;
     u[kOutdoorFan] = 0.6 + 0.4 * (u[kCompressorSpeed] - 20.0) / 70.0;
+  }
+
+  void save(std::ostream& out) const override {
+    out << rng_ << ' ' << gain_block_ << ' ' << gains_ << ' ' << speed_integral_ << ' ' << valve_
+        << ' ' << started_;
+  }
+  bool restore(std::istream& in) override {
+    return static_cast<bool>(in >> rng_ >> gain_block_ >> gains_ >> speed_integral_ >> valve_ >>
+                             started_);
   }
 
  private:

@@ -9,9 +9,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -61,6 +63,10 @@ void usage(std::FILE* to) {
       "  --bias NAME=D       the point NAME reads D (in its own unit) above the truth\n"
       "                      throughout: a miscalibrated transmitter (repeatable)\n"
       "  --truth-csv FILE    write the simulated truth, one row per step\n"
+      "  --state FILE        continue the plant saved in FILE, if it is there (model time,\n"
+      "                      states, inputs, the scenario's draws and controllers), and\n"
+      "                      save it there after every step: a restarted simulator goes on\n"
+      "                      with the same plant (the demo's; remove FILE to start over)\n"
       "  --commissioning     heat pump: hold six operating points for 45 min each instead of\n"
       "                      the day's thermostat and superheat loops\n"
       "  --write-points F H  no Modbus server: simulate H model hours as fast as possible and\n"
@@ -107,7 +113,7 @@ void apply_overrides(const std::vector<PointOverride>& overrides,
 }
 
 struct Args {
-  std::string config, unit, truth_csv, points_csv;
+  std::string config, unit, truth_csv, points_csv, state;
   double points_hours = 0.0;
   long port = -1;
   long max_clients = 16;
@@ -142,6 +148,8 @@ bool parse(int argc, char** argv, Args& a) {
       a.unit = take();
     } else if (arg == "--truth-csv") {
       a.truth_csv = take();
+    } else if (arg == "--state") {
+      a.state = take();
     } else if (arg == "--write-points") {
       a.points_csv = take();
       if (i + 1 >= argc) return false;
@@ -193,7 +201,36 @@ bool parse(int argc, char** argv, Args& a) {
       return false;
     }
   }
-  return !a.config.empty() && a.sim.step_s > 0.0;
+  return !a.config.empty() && a.sim.step_s > 0.0 && (a.state.empty() || a.points_csv.empty());
+}
+
+// --state: continues the plant saved in `path`; false if there is none yet.
+bool load_state(hvac_twin::sim::Simulation& sim, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    if (!std::filesystem::exists(path)) return false;
+    throw std::runtime_error("--state " + path + ": cannot read it");
+  }
+  try {
+    sim.restore(in);
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error("--state " + path + ": " + e.what() +
+                             " (not a state this simulator saved for this configuration; remove "
+                             "the file to start the plant over)");
+  }
+  return true;
+}
+
+// --state: the plant as it stands, whole or not at all (written beside, then renamed).
+void save_state(const hvac_twin::sim::Simulation& sim, const std::string& path) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    sim.save(out);
+    out.flush();
+    if (!out) throw std::runtime_error("--state " + path + ": cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
 }
 
 // --write-points: the points CSV of args.points_hours of the scenario, from 2026-07-01 08:00 UTC.
@@ -281,6 +318,7 @@ int main(int argc, char** argv) {
   try {
     hvac_twin::sim::Simulation sim(*unit, args.sim);
     if (!args.points_csv.empty()) return write_points(sim, *unit, args);
+    const bool resumed = !args.state.empty() && load_state(sim, args.state);
     hvac_twin::test_support::ModbusTestServerOptions so;
     so.port = static_cast<std::uint16_t>(args.port >= 0 ? args.port : unit->modbus.port);
     so.unit_id = unit->modbus.unit_id;
@@ -308,6 +346,9 @@ int main(int argc, char** argv) {
         "seed %llu\n",
         unit->id.c_str(), unit->model.type.c_str(), server.port(), so.unit_id, time_scale,
         static_cast<unsigned long long>(args.sim.seed));
+    if (resumed)
+      std::printf("hvac-twin-sim: continuing the plant saved in %s at t = %.2f h\n",
+                  args.state.c_str(), sim.time_s() / 3600.0);
     std::fflush(stdout);
 
     const auto wall_step = static_cast<std::int64_t>(args.sim.step_s / time_scale * 1e9);
@@ -323,6 +364,7 @@ int main(int argc, char** argv) {
       }
       publish();
       if (csv.is_open()) sim.write_csv_row(csv, now_ns(CLOCK_REALTIME));
+      if (!args.state.empty()) save_state(sim, args.state);
       for (const int t = g_toggles.load(); toggles_seen < t; ++toggles_seen) {
         if (server.running())
           server.stop();
@@ -332,7 +374,8 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
       const auto per_hour = static_cast<std::int64_t>(3600.0 / args.sim.step_s);
-      if (!args.quiet && per_hour > 0 && k % per_hour == 0) {
+      const auto steps = std::llround(sim.time_s() / args.sim.step_s);  // since t = 0
+      if (!args.quiet && per_hour > 0 && steps % per_hour == 0) {
         std::printf("hvac-twin-sim: t = %5.1f h\n", sim.time_s() / 3600.0);
         std::fflush(stdout);
       }

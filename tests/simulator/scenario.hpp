@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <span>
 #include <string_view>
@@ -33,6 +34,12 @@ class Scenario {
   // disturbance states of x (internal gains, a leak).
   virtual void drive(double t, double dt, std::span<double> x, std::span<const double> y,
                      std::span<double> u) = 0;
+  // What the scenario carries from one drive() to the next (its random draws, the controllers'
+  // integrators), as one line of text without its end, and back: a restarted simulator
+  // continues the same plant (Simulation::save). restore() returns false on text it did not
+  // write.
+  virtual void save(std::ostream& out) const = 0;
+  virtual bool restore(std::istream& in) = 0;
 };
 
 // The scenario for the model's type; throws std::invalid_argument for a type without one.

@@ -1,9 +1,13 @@
 #include "tests/simulator/simulation.hpp"
 
 #include <cmath>
+#include <istream>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "plant_models/catalog.hpp"
 #include "tests/simulator/truth_model.hpp"
@@ -73,6 +77,84 @@ void Simulation::point_values(std::span<double> out) {
     const double model_value = measured ? y_[idx] + noise_sigma_[i] * g(rng_) : u_[idx];
     out[i] = to_point_[i].apply(model_value);
   }
+}
+
+namespace {
+constexpr const char* kStateMagic = "hvac-twin-sim state 1";
+}  // namespace
+
+void Simulation::save(std::ostream& out) const {
+  const auto precision = out.precision(17);  // round trip
+  out << kStateMagic << "\nmodel " << unit_.model.type << ' ' << x_.size() << ' ' << u_.size()
+      << "\nt " << t_ << "\nx";
+  for (double v : x_)
+    out << ' ' << v;
+  out << "\nu";
+  for (double v : u_)
+    out << ' ' << v;
+  out << "\nnoise " << rng_ << "\nscenario ";
+  scenario_->save(out);
+  out << '\n';
+  out.precision(precision);
+}
+
+void Simulation::restore(std::istream& in) {
+  std::string line;
+  int number = 0;
+  // The next line, which must start with `prefix`; the rest of it to parse, and what to say if
+  // that fails.
+  const auto next = [&](const std::string& prefix, const std::string& expected) {
+    ++number;
+    const std::string fail = "line " + std::to_string(number) + ": expected " + expected;
+    if (!std::getline(in, line)) throw std::runtime_error(fail + ", found the end of the file");
+    if (line.compare(0, prefix.size(), prefix) != 0)
+      throw std::runtime_error(fail + ", found \"" + line + '"');
+    return std::pair{std::istringstream(line.substr(prefix.size())), fail};
+  };
+  const auto numbers = [&](const char* key, std::vector<double>& to, const char* what) {
+    auto [is, fail] = next(std::string(key) + ' ', std::string("\"") + key + "\" and " +
+                                                       std::to_string(to.size()) + ' ' + what);
+    for (double& v : to)
+      if (!(is >> v) || !std::isfinite(v)) throw std::runtime_error(fail);
+    if (std::string extra; is >> extra) throw std::runtime_error(fail + ", found more");
+  };
+  if (auto [is, fail] = next(kStateMagic, std::string("\"") + kStateMagic + '"'); !is.str().empty())
+    throw std::runtime_error(fail + ", found \"" + line + '"');
+  {
+    auto [is, fail] =
+        next("model ", "\"model " + unit_.model.type + ' ' + std::to_string(x_.size()) + ' ' +
+                           std::to_string(u_.size()) +
+                           "\" (this configuration's model, states and inputs)");
+    std::string type;
+    std::size_t n = 0, m = 0;
+    if (!(is >> type >> n >> m) || type != unit_.model.type || n != x_.size() || m != u_.size())
+      throw std::runtime_error(fail + ", found \"" + line + '"');
+  }
+  double t = 0.0;
+  {
+    auto [is, fail] = next("t ", "\"t\" and the model time in seconds (>= 0)");
+    if (!(is >> t) || !(t >= 0.0) || !std::isfinite(t)) throw std::runtime_error(fail);
+  }
+  std::vector<double> x(x_.size()), u(u_.size());
+  numbers("x", x, "state values");
+  numbers("u", u, "input values");
+  std::mt19937_64 rng;
+  if (auto [is, fail] = next("noise ", "\"noise\" and the sensor noise's generator"); !(is >> rng))
+    throw std::runtime_error(fail);
+  auto [is, fail] = next("scenario ", "\"scenario\" and the scenario's own state");
+  // The scenario is the last thing read: nothing has changed if it fails.
+  std::ostringstream kept;
+  kept.precision(17);
+  scenario_->save(kept);
+  if (!scenario_->restore(is)) {
+    std::istringstream back(kept.str());
+    scenario_->restore(back);
+    throw std::runtime_error(fail);
+  }
+  t_ = t;
+  x_ = std::move(x);
+  u_ = std::move(u);
+  rng_ = rng;
 }
 
 void Simulation::write_csv_header(std::ostream& out) const {

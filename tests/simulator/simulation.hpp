@@ -44,6 +44,14 @@ class Simulation {
   [[nodiscard]] std::span<const double> state() const { return x_; }
   [[nodiscard]] std::span<const double> inputs() const { return u_; }
 
+  // The plant as it stands (model time, states, the inputs of the next interval, the sensor
+  // noise's and the scenario's draws and controllers), as text, and back into a Simulation of the
+  // same configuration: it then goes on as the saved one would have (to the integrator's
+  // round-off: the model's warm starts are not saved). restore() throws std::runtime_error
+  // naming the line and what it expected, and changes nothing then.
+  void save(std::ostream& out) const;
+  void restore(std::istream& in);
+
   // CSV of the truth: wall_time_ns, t_s, every state, input and output by name (model units).
   void write_csv_header(std::ostream& out) const;
   void write_csv_row(std::ostream& out, std::int64_t wall_time_ns);

@@ -6,7 +6,9 @@
 // The simulation starts at 06:00 (t = 0).
 #include <algorithm>
 #include <cmath>
+#include <istream>
 #include <numbers>
+#include <ostream>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -60,6 +62,13 @@ class ZoneScenario final : public Scenario {
     const double q = std::clamp(unclamped, 0.0, kMaxHeat);
     if (q == unclamped) integral_ += error * dt;  // anti-windup: integrate only when unsaturated
     u[q_hp_] = q;
+  }
+
+  void save(std::ostream& out) const override {
+    out << rng_ << ' ' << gain_block_ << ' ' << gains_ << ' ' << integral_;
+  }
+  bool restore(std::istream& in) override {
+    return static_cast<bool>(in >> rng_ >> gain_block_ >> gains_ >> integral_);
   }
 
  private:
