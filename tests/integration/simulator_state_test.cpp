@@ -134,8 +134,9 @@ TEST_CASE("a state the simulator did not save is refused with its line, changing
   CHECK(s.time_s() == 15.0);
 }
 
-TEST_CASE("hvac-twin-sim --state: a restarted simulator continues the plant; a bad file stays",
-          "[simulator][state]") {
+TEST_CASE(
+    "hvac-twin-sim --state: a restarted simulator continues the plant, and a bad file is kept",
+    "[simulator][state]") {
   test::ScratchDir dir("sim-state");
   const std::string config = std::string(HVAC_TWIN_SOURCE_DIR) + "/config/demo-heat-pump.json";
   const std::string state = dir / "plant.state";
