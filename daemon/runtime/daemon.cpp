@@ -152,6 +152,8 @@ void Daemon::stop() {
   for (auto& t : threads_)
     if (t.joinable()) t.join();
   threads_.clear();
+  for (auto& p : pipelines_)
+    p->save_final_checkpoint();  // written as the pipelines are destroyed below
   if (supervisor_) supervisor_->stop();
   pipelines_.clear();
   participant_.reset();

@@ -513,6 +513,8 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   if (out.cycle_ns > cycle_max_ns_) cycle_max_ns_ = out.cycle_ns;
   publish_health(stamp, tick.index, out.quality);
   // Hands the snapshot to the checkpoint writer thread: the disk never delays a cycle.
+  last_stamp_ns_ = stamp;
+  last_cycle_ = tick.index;
   if (checkpoints_ && initialized_ &&
       ++cycles_since_checkpoint_ >=
           static_cast<std::uint64_t>(unit_.estimator.checkpoint_every_cycles)) {

@@ -88,6 +88,12 @@ class UnitPipeline {
 
   CycleOutcome run_cycle(const Tick& tick);
 
+  // Owner thread, once the cycle thread has stopped: hands the last cycle's state to the
+  // checkpoint writer unless the periodic checkpoint already holds it, so that a clean stop
+  // (an upgrade, a reboot) keeps the newest state rather than one up to
+  // estimator.checkpoint_every_cycles - 1 cycles older. Saved before the writer is destroyed.
+  void save_final_checkpoint();
+
   [[nodiscard]] const std::string& id() const { return unit_.id; }
   [[nodiscard]] std::int64_t wall_period_ns() const { return wall_period_ns_; }
   [[nodiscard]] const est::Estimator& filter() const { return *filter_; }
@@ -247,6 +253,8 @@ class UnitPipeline {
   FilterSnapshot snapshot_;  // sized once; refilled in place before every save
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;  // after the store: stopped before it
   std::uint64_t cycles_since_checkpoint_ = 0;
+  std::int64_t last_stamp_ns_ = 0;  // the last initialised cycle's stamp and index
+  std::uint64_t last_cycle_ = 0;
 
   // The recording of every cycle's snapshot (runtime.recording_budget_mib > 0), null when off.
   std::unique_ptr<recording::Recorder> recorder_;

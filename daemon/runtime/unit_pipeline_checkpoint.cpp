@@ -133,4 +133,11 @@ void UnitPipeline::save_checkpoint(std::int64_t stamp_ns, std::uint64_t cycle) {
   checkpoint_writer_->submit(snapshot_);  // saved on the writer thread
 }
 
+void UnitPipeline::save_final_checkpoint() {
+  if (!checkpoints_ || !initialized_ || cycles_since_checkpoint_ == 0) return;
+  cycles_since_checkpoint_ = 0;
+  save_checkpoint(last_stamp_ns_, last_cycle_);
+  log_->info("unit {}: checkpoint of cycle {} handed to its writer on stop", unit_.id, last_cycle_);
+}
+
 }  // namespace hvac_twin::runtime

@@ -384,3 +384,56 @@ TEST_CASE("a disk stalling every fsync for 1.5 s delays no cycle, checkpoints ar
   ::kill(daemon, SIGTERM);
   REQUIRE(stack.daemon().wait(10s).has_value());
 }
+
+TEST_CASE("a clean stop saves the last cycle's state, which the next start resumes from",
+          "[integration][checkpoint]") {
+  StackOptions o = resume_options();
+  o.domain_id = 76;
+  o.customize = [base = o.customize](nlohmann::json& c) {
+    base(c);
+    // No periodic checkpoint within the run: what is on disk after it is the stop's own.
+    c["units"][0]["estimator"]["checkpoint_every_cycles"] = 10000;
+  };
+  Stack stack("ckpt-stop", o);
+  stack.start_sim();
+  dds::Participant participant(loopback_dds(o.domain_id));
+  dds::Subscriber reader(participant, "hvac_twin",
+                         dds::TopicSet{false, false, true, false, false, false});  // health
+  stack.start_daemon();
+  std::uint64_t last_seen = 0;
+  std::vector<dds::Record> got;
+  const auto end = std::chrono::steady_clock::now() + 20s;
+  while (last_seen < 8 && std::chrono::steady_clock::now() < end) {
+    got.clear();
+    reader.wait_and_take(100ms, got);
+    for (const auto& rec : got)
+      last_seen = std::get<dds::HealthRecord>(rec).cycle;
+  }
+  INFO("daemon stderr:\n" << stack.daemon().err());
+  REQUIRE(last_seen >= 8);
+  const std::string ckpt = stack.path("state/hp1.ckpt");
+  CHECK_FALSE(std::filesystem::exists(ckpt));  // no periodic save yet
+  stack.daemon().signal(SIGTERM);
+  REQUIRE(stack.daemon().wait(10s).has_value());
+
+  // The stop saved the newest cycle: at least the last one published before the signal.
+  REQUIRE(std::filesystem::exists(ckpt));
+  const auto saved = read_checkpoint(ckpt);
+  REQUIRE(saved.ok());
+  CHECK(saved.snapshot.cycle >= last_seen);
+  CHECK_THAT(stack.daemon().err(),
+             Catch::Contains("checkpoint of cycle " + std::to_string(saved.snapshot.cycle) +
+                             " handed to its writer on stop"));
+  const std::size_t first_run_bytes = stack.daemon().err().size();
+  stack.start_daemon();
+  CHECK(eventually(
+      [&] {
+        return stack.daemon().err().find("resumed from checkpoint", first_run_bytes) !=
+               std::string::npos;
+      },
+      20s));
+  CHECK_THAT(stack.daemon().err().substr(first_run_bytes),
+             Catch::Contains("(cycle " + std::to_string(saved.snapshot.cycle) + ","));
+  stack.daemon().signal(SIGTERM);
+  stack.daemon().wait(10s);
+}
