@@ -141,7 +141,7 @@ TEST_CASE(
   const std::string config = std::string(HVAC_TWIN_SOURCE_DIR) + "/config/demo-heat-pump.json";
   const std::string state = dir / "plant.state";
   const auto start = [&](const std::string& truth) {
-    // 2 wall seconds at 300x: some 120 steps of 5 s.
+    // 2 wall seconds at 300x: some 120 steps of 5 s, under 20 in a sanitizer build (start-up).
     test::Process p(HVAC_TWIN_SIM_EXE,
                     {"--config", config, "--port", "0", "--time-scale", "300", "--state", state,
                      "--truth-csv", dir / truth, "--duration", "2", "--quiet"},
@@ -166,11 +166,11 @@ TEST_CASE(
   REQUIRE(start("first.csv") == 0);
   const auto [t0, t1] = times("first.csv");
   CHECK(t0 == 0.0);
-  CHECK(t1 > 100.0);
+  CHECK(t1 >= 25.0);  // ran: at least 5 steps
   REQUIRE(start("second.csv") == 0);
   const auto [t2, t3] = times("second.csv");
   CHECK(t2 == t1);  // where the first stopped
-  CHECK(t3 > t2 + 100.0);
+  CHECK(t3 >= t2 + 25.0);
   CHECK_THAT(test::Process::read(dir / "sim.out"),
              Catch::Contains("continuing the plant saved in " + state));
 
