@@ -512,9 +512,9 @@ CycleOutcome UnitPipeline::run_cycle(const Tick& tick) {
   cycle_ns_ = out.cycle_ns;
   if (out.cycle_ns > cycle_max_ns_) cycle_max_ns_ = out.cycle_ns;
   publish_health(stamp, tick.index, out.quality);
-  // Hands the snapshot to the checkpoint writer thread: the disk never delays a cycle.
-  last_stamp_ns_ = stamp;
+  last_stamp_ns_ = stamp;  // for the save on a clean stop (save_final_checkpoint)
   last_cycle_ = tick.index;
+  // Hands the snapshot to the checkpoint writer thread: the disk never delays a cycle.
   if (checkpoints_ && initialized_ &&
       ++cycles_since_checkpoint_ >=
           static_cast<std::uint64_t>(unit_.estimator.checkpoint_every_cycles)) {

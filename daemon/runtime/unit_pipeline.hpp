@@ -253,7 +253,7 @@ class UnitPipeline {
   FilterSnapshot snapshot_;  // sized once; refilled in place before every save
   std::unique_ptr<CheckpointWriter> checkpoint_writer_;  // after the store: stopped before it
   std::uint64_t cycles_since_checkpoint_ = 0;
-  std::int64_t last_stamp_ns_ = 0;  // the last initialised cycle's stamp and index
+  std::int64_t last_stamp_ns_ = 0;  // the last cycle's stamp and index, whatever its outcome
   std::uint64_t last_cycle_ = 0;
 
   // The recording of every cycle's snapshot (runtime.recording_budget_mib > 0), null when off.
