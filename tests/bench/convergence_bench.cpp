@@ -97,11 +97,12 @@ SteadyAnswer richardson(const SteadyAnswer& coarse, const SteadyAnswer& fine, do
 int main(int argc, char** argv) {
   bool short_form = false;
   std::optional<OperatingPoint> point;
+  std::string point_name;  // --point's, as the three points are named
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--short") == 0) {
       short_form = true;
     } else if (std::strcmp(argv[i], "--point") == 0 && i + 1 < argc) {
-      OperatingPoint op{"--point", 0.0, 0.0, 0.0, 0.0};
+      OperatingPoint op{"", 0.0, 0.0, 0.0, 0.0};
       char end = 0;
       if (std::sscanf(argv[++i], "%lf,%lf,%lf,%lf%c", &op.speed, &op.valve, &op.t_out, &op.t_zone,
                       &end) != 4 ||
@@ -112,6 +113,9 @@ int main(int argc, char** argv) {
                      argv[i]);
         return 2;
       }
+      char name[96];
+      std::snprintf(name, sizeof name, "%.0f Hz, %.0f/%.0f degC", op.speed, op.t_out, op.t_zone);
+      point_name = name;
       point = op;
     } else {
       std::fprintf(stderr,
@@ -126,7 +130,10 @@ int main(int argc, char** argv) {
   std::printf("Convergence of heat_pump_r32 in its cell count (filter model, 0.5 kg R32)\n");
   std::vector<OperatingPoint> points(test::kConvergencePoints.begin(),
                                      test::kConvergencePoints.end());
-  if (point) points = {*point};
+  if (point) {
+    point->name = point_name.c_str();
+    points = {*point};
+  }
   for (const OperatingPoint& op : points) {
     if (short_form && !point && op.speed != 50.0) continue;
     const auto t0 = std::chrono::steady_clock::now();
@@ -184,7 +191,11 @@ int main(int argc, char** argv) {
     std::printf("  truth at %d cells vs Richardson: %.3f K, heat %.3f %%, pressure %.3f %%\n",
                 sim::kTruthCells, e.temperature, 100.0 * e.heat, 100.0 * e.pressure);
   }
-  std::printf("\naims at %d cells: %s\n", kDefaultCells,
-              all_met ? "all met" : "MISSED (see above)");
+  if (point)
+    std::printf("\naims at %d cells at %s (valve %.3f): %s\n", kDefaultCells, point->name,
+                point->valve, all_met ? "all met" : "MISSED (see above)");
+  else
+    std::printf("\naims at %d cells: %s\n", kDefaultCells,
+                all_met ? "all met" : "MISSED (see above)");
   return 0;
 }
