@@ -15,6 +15,12 @@
 // Then the benchmark truth (Smith void fraction, the variant two-phase heat transfer correlations,
 // friction ~ mdot^1.75 distributed by specific volume): its answers at 10-40 cells, to show the
 // cell count it runs at is converged too (Richardson of 30 and 40 cells as its reference).
+// Then the dynamic answers (heat_pump_steady.hpp, model_transient: the valve hunting +-5 % for
+// 10 minutes, then a +8 Hz speed step) at --point or the nominal point, for the filter's model
+// and the truth: each measured point's motion against the finest cell count, RMS and largest,
+// with the sensors' noise for scale. Steady convergence does not imply it: the condenser-inlet
+// wall's motion at 12 cells is 2.6x its sensor's noise off at the flooded point (README,
+// "The charge's cell-count dependence").
 // --short: the nominal point only, fewer cell counts (CI). --point SPEED,VALVE,T_OUT,T_ZONE: that
 // operating point instead of the three (e.g. 20,0.27,35,27: the 20 Hz minimum with a flooded
 // evaporator, where estimation_bench's hour ends; 12 cells 0.36 % of the nameplate off, met).
@@ -90,6 +96,54 @@ SteadyAnswer richardson(const SteadyAnswer& coarse, const SteadyAnswer& fine, do
   s.q_cond = r(coarse.q_cond, fine.q_cond);
   s.q_evap = r(coarse.q_evap, fine.q_evap);
   return s;
+}
+
+// The points' motion in the scripted transient (heat_pump_steady.hpp, model_transient) at each
+// of `cells`, against the last (the finest): per point, the RMS and the largest error in its
+// change from its own steady state, so the steady offsets above are left out. Pressures in kPa,
+// temperatures in K, with the sensors' noise (estimation_bench: 0.5 % of the reading, 0.2 K)
+// for scale.
+void dynamic_section(const plant::ParameterMap& params, const char* label, const OperatingPoint& op,
+                     const std::vector<int>& cells) {
+  std::vector<std::vector<test::MeasuredPoints>> runs;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (const int n : cells)
+    runs.push_back(test::model_transient(params, n, op, kNameplate));
+  const auto& ref = runs.back();
+  std::printf(
+      "\n%s, %s (valve %.3f): the points' motion in the transient against %d cells, RMS "
+      "/ largest (%.1f s)\n",
+      label, op.name, op.valve, cells.back(),
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::printf("  %-12s %13s %13s %13s %13s %13s %13s\n", "cells", "p_suc kPa", "p_dis kPa",
+              "Tw_ci K", "Tw_co K", "Tw_ei K", "Tw_eo K");
+  constexpr double kScale[6] = {1e-3, 1e-3, 1, 1, 1, 1};
+  const double sigma[6] = {5e-3 * ref[0][0], 5e-3 * ref[0][1], 0.2, 0.2, 0.2, 0.2};
+  constexpr const char* kName[6] = {"p_suc", "p_dis", "Tw_ci", "Tw_co", "Tw_ei", "Tw_eo"};
+  std::string beyond;  // the points whose motion's RMS error exceeds the sensor's noise
+  for (std::size_t r = 0; r + 1 < runs.size(); ++r) {
+    std::printf("  %-12d", cells[r]);
+    for (std::size_t j = 0; j < 6; ++j) {
+      double sum = 0, worst = 0;
+      for (std::size_t t = 1; t < ref.size(); ++t) {
+        const double e = (runs[r][t][j] - runs[r][0][j]) - (ref[t][j] - ref[0][j]);
+        sum += e * e;
+        worst = std::max(worst, std::abs(e));
+      }
+      const double rms = std::sqrt(sum / double(ref.size() - 1));
+      std::printf("  %5.2f / %5.2f", kScale[j] * rms, kScale[j] * worst);
+      if (cells[r] == kDefaultCells && rms > sigma[j])
+        beyond += std::string(beyond.empty() ? "" : ", ") + kName[j];
+    }
+    std::printf("\n");
+  }
+  std::printf("  %-12s ", "sensor sigma");
+  for (std::size_t j = 0; j < 6; ++j)
+    std::printf("  %13.2f", kScale[j] * sigma[j]);
+  std::printf("\n");
+  if (std::find(cells.begin(), cells.end() - 1, kDefaultCells) != cells.end() - 1)
+    std::printf("  at %d cells, the motion's RMS error within the sensor's noise: %s%s\n",
+                kDefaultCells, beyond.empty() ? "every point" : "MISSED at ", beyond.c_str());
 }
 
 }  // namespace
@@ -191,6 +245,14 @@ int main(int argc, char** argv) {
     std::printf("  truth at %d cells vs Richardson: %.3f K, heat %.3f %%, pressure %.3f %%\n",
                 sim::kTruthCells, e.temperature, 100.0 * e.heat, 100.0 * e.pressure);
   }
+  // The dynamic answers, at --point or the nominal point: the default model and the truth.
+  const OperatingPoint& moving = point ? *point : test::kConvergencePoints[1];
+  std::printf(
+      "\nTransient from steady state: the valve +-5 %% in a 50 s square wave for 10 min, then "
+      "the compressor +8 Hz for 10 min\n");
+  dynamic_section(filter, "filter model", moving,
+                  short_form ? std::vector<int>{12, 20, 40} : std::vector<int>{6, 12, 20, 30, 40});
+  dynamic_section(truth, "benchmark truth", moving, {20, 40});
   if (point)
     std::printf("\naims at %d cells at %s (valve %.3f): %s\n", kDefaultCells, point->name,
                 point->valve, all_met ? "all met" : "MISSED (see above)");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -39,34 +40,86 @@ SteadyAnswer answer_of(const std::vector<double>& y) {
 
 }  // namespace
 
-SteadyAnswer model_steady(const plant::ParameterMap& params, int cells, const OperatingPoint& op,
-                          double charge) {
+namespace {
+
+// The model with `params` at `cells`, the zone held at its temperature: 1e13 J/K drifts by
+// microkelvin in hours.
+std::unique_ptr<plant::ContinuousModel> held_zone_model(const plant::ParameterMap& params,
+                                                        int cells) {
   plant::ParameterMap p = params;
   p["cells"] = cells;
-  // A zone that holds its temperature: 1e13 J/K drifts by microkelvin in hours.
   p["zone_C_air"] = 1e13;
   p["zone_C_mass"] = 1e13;
-  const auto model = plant::create_model("heat_pump_r32", p);
-  const auto& hp = dynamic_cast<const plant::AdModel<plant::HeatPumpR32>&>(*model).model();
-  std::vector<double> x = hp.initial_state(op.t_out, op.t_zone, charge);
-  const std::vector<double> u{op.speed, op.valve, 1.0, 1.0, op.t_out};
+  return plant::create_model("heat_pump_r32", p);
+}
+
+plant::IntegratorOptions tight() {
   plant::IntegratorOptions o;
   o.rel_tol = 1e-9;
-  plant::Integrator integ(*model, o);
-  std::vector<double> y(model->num_outputs()), last;
-  // Until the outputs stop moving (relative change below 1e-6 over 10 minutes: the held zone
-  // still drifts by ~1e-7 K), at most 6 h.
+  return o;
+}
+
+// Integrates x at inputs u until the outputs stop moving (relative change below 1e-6 over 10
+// minutes: the held zone still drifts by ~1e-7 K), at most 6 h; the settled outputs.
+std::vector<double> settle(const plant::ContinuousModel& model, std::vector<double>& x,
+                           const std::vector<double>& u) {
+  plant::Integrator integ(model, tight());
+  std::vector<double> y(model.num_outputs()), last;
   for (int chunk = 0; chunk < 36; ++chunk) {
     if (!integ.step(x, u, 600.0, {}).ok())
       throw std::runtime_error(std::string("steady state not reached: ") + integ.last_error());
-    if (model->outputs(x, u, y) != plant::kModelOk) throw std::runtime_error("outputs failed");
+    if (model.outputs(x, u, y) != plant::kModelOk) throw std::runtime_error("outputs failed");
     bool settled = !last.empty();
     for (std::size_t i = 0; i < y.size() && settled; ++i)
       settled = std::abs(y[i] - last[i]) <= 1e-6 * std::max(1.0, std::abs(y[i]));
-    if (settled) return answer_of(y);
+    if (settled) return y;
     last = y;
   }
   throw std::runtime_error("steady state not reached in 6 h");
+}
+
+std::vector<double> initial_state(const plant::ContinuousModel& model, const OperatingPoint& op,
+                                  double charge) {
+  const auto& hp = dynamic_cast<const plant::AdModel<plant::HeatPumpR32>&>(model).model();
+  return hp.initial_state(op.t_out, op.t_zone, charge);
+}
+
+std::vector<double> inputs(const OperatingPoint& op) {
+  return {op.speed, op.valve, 1.0, 1.0, op.t_out};
+}
+
+}  // namespace
+
+SteadyAnswer model_steady(const plant::ParameterMap& params, int cells, const OperatingPoint& op,
+                          double charge) {
+  const auto model = held_zone_model(params, cells);
+  std::vector<double> x = initial_state(*model, op, charge);
+  return answer_of(settle(*model, x, inputs(op)));
+}
+
+std::vector<MeasuredPoints> model_transient(const plant::ParameterMap& params, int cells,
+                                            const OperatingPoint& op, double charge) {
+  const auto model = held_zone_model(params, cells);
+  std::vector<double> x = initial_state(*model, op, charge);
+  std::vector<double> u = inputs(op);
+  std::vector<double> y = settle(*model, x, u);
+  const auto measured = [&y] {
+    return MeasuredPoints{y[kSuctionPressure], y[kDischargePressure], y[kCondWallTempIn],
+                          y[kCondWallTempOut], y[kEvapWallTempIn],    y[kEvapWallTempOut]};
+  };
+  std::vector<MeasuredPoints> out{measured()};
+  plant::Integrator integ(*model, tight());
+  for (int t = 0; t < kTransientSeconds; ++t) {
+    const bool hunting = t < kTransientSeconds / 2;
+    u[kValveOpening] = op.valve * (hunting && (t / 25) % 2 == 0 ? 1.05 : 0.95);
+    if (!hunting) u[kValveOpening] = op.valve;
+    u[kCompressorSpeed] = op.speed + (hunting ? 0.0 : 8.0);
+    if (!integ.step(x, u, 1.0, {}).ok())
+      throw std::runtime_error(std::string("transient failed: ") + integ.last_error());
+    if (model->outputs(x, u, y) != plant::kModelOk) throw std::runtime_error("outputs failed");
+    out.push_back(measured());
+  }
+  return out;
 }
 
 double model_charge_for_subcooling(const plant::ParameterMap& params, int cells,

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "plant_models/core/model_info.hpp"
 
@@ -45,6 +46,18 @@ struct SteadyAnswer {
 // The model (heat_pump_r32 with `params`, cells overridden) at steady state with `charge` [kg].
 SteadyAnswer model_steady(const plant::ParameterMap& params, int cells, const OperatingPoint& op,
                           double charge);
+
+// The model's response to a scripted transient from its steady state at the operating point
+// (`charge` [kg], the zone held): the valve swung +-5 % of its opening in a 50 s square wave for
+// 10 minutes (a superheat controller hunting, as the flooded 20 Hz point of estimation_bench
+// does), then the compressor 8 Hz faster for 10 minutes. The six points a unit measures, every
+// second from t = 1 s: suction and discharge pressure [Pa], then the condenser-inlet,
+// condenser-outlet, evaporator-inlet and evaporator-outlet wall temperatures [degC]; index 0 is
+// the steady state.
+inline constexpr int kTransientSeconds = 1200;
+using MeasuredPoints = std::array<double, 6>;
+std::vector<MeasuredPoints> model_transient(const plant::ParameterMap& params, int cells,
+                                            const OperatingPoint& op, double charge);
 
 // The charge [kg] at which the model reproduces `subcooling` [K] at the operating point (secant
 // iteration from the nameplate, to 1e-4 K).
