@@ -229,6 +229,17 @@ class HeatPumpR32 {
   bool predicted_pressures(const SideInputs<double>& in, double& p_cond, double& p_evap) const;
   template <class S>
   int evaluate(std::span<const S> x, std::span<const double> u, Eval<S>& e) const;
+  // The wall at a sensed coil end (hp::End) and what sets it: the refrigerant film's
+  // conductance there and the refrigerant's temperature, the air side's conductance and air
+  // temperature (W/K per cell, K), and the end cell's mean wall in steady balance with its
+  // profile [K]. The local wall in steady balance is (a t_ref + g t_air) / (a + g).
+  template <class S>
+  struct EndBalance {
+    S a{}, t_ref{}, g{}, t_air{}, mean{};
+  };
+  template <class S>
+  EndBalance<S> end_balance(const Eval<S>& e, std::span<const S> x, std::span<const double> u,
+                            hp::End end) const;
   template <class S>
   void march_condenser(Eval<S>& e, const std::span<const S> x) const;
   template <class S>

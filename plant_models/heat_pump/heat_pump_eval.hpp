@@ -546,6 +546,42 @@ void HeatPumpR32::march_evaporator(Eval<S>& e, const std::span<const S> x) const
 }
 
 template <class S>
+HeatPumpR32::EndBalance<S> HeatPumpR32::end_balance(const Eval<S>& e, std::span<const S> x,
+                                                    std::span<const double> u, hp::End end) const {
+  using namespace hp;
+  const std::size_t N = n_;
+  const bool cond = end == kEndCondIn || end == kEndCondOut;
+  const CoilCell<S>& c = end == kEndCondIn    ? e.cond[0]
+                         : end == kEndCondOut ? e.cond[N - 1]
+                         : end == kEndEvapIn  ? e.evap[0]
+                                              : e.evap[N - 1];
+  const ProfileOptions& o = cond ? prof_cond_ : prof_evap_;
+  // The refrigerant at the end: its pressure and enthalpy.
+  S p_end, h_end;
+  switch (end) {
+    case kEndCondIn:
+      p_end = e.p_cond, h_end = e.dl.h;
+      break;
+    case kEndCondOut:
+      p_end = e.ll.p, h_end = 1e3 * x[L_.h_cond.last()];
+      break;
+    case kEndEvapIn:
+      p_end = S(e.p_evap + e.dp_evap), h_end = e.ll.h;
+      break;
+    default:
+      p_end = e.p_evap, h_end = 1e3 * x[L_.h_evap.last()];
+      break;
+  }
+  EndBalance<S> b;
+  b.g = cond ? e.g_cond : e.g_evap;
+  b.t_air = cond ? S(u[kOutdoorTemperature] + kKelvin) : S(e.t_air + kKelvin);
+  b.t_ref = r32::ph_props(p_end, h_end).T;
+  b.a = local_alpha(o, h_end, c.h_l, c.h_v, cond ? e.cond_htc : e.evap_htc) * o.area;
+  b.mean = (o.area * c.alpha_T + b.g * b.t_air) / (o.area * c.alpha + b.g);
+  return b;
+}
+
+template <class S>
 int HeatPumpR32::rhs(std::span<const S> x, std::span<const double> u, std::span<S> xdot) const {
   Eval<S> e;
   if (const int st = evaluate(x, u, e); st != kModelOk) return st;
@@ -559,6 +595,14 @@ int HeatPumpR32::rhs(std::span<const S> x, std::span<const double> u, std::span<
     xdot[L_.h_evap[k]] = 1e-3 * e.hdot_evap[k];
     xdot[L_.tw_cond[k]] = (e.q_cond_air[k] - e.q_cond[k]) / cw_c;
     xdot[L_.tw_evap[k]] = (e.q_evap_air[k] - e.q_evap[k]) / cw_e;
+  }
+  // The wall at a sensed end: a strip of the end cell's wall (the same capacity per area) in
+  // balance with the refrigerant and the air there.
+  const std::array<double, hp::kNumEnds> cw_end{cw_c, cw_c, cw_e, cw_e};
+  for (std::size_t j = 0; j < L_.tw_end.size; ++j) {
+    const EndBalance<S> b = end_balance(e, x, u, static_cast<hp::End>(j));
+    const S tw = x[L_.tw_end[j]] + kKelvin;
+    xdot[L_.tw_end[j]] = (b.a * (b.t_ref - tw) + b.g * (b.t_air - tw)) / cw_end[j];
   }
   xdot[L_.h_dl] = 1e-3 * e.hdot_dl;
   xdot[L_.h_ll] = 1e-3 * e.hdot_ll;
@@ -588,38 +632,26 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   const auto sat_ll = r32::sat_props(e.ll.p);
   const auto dis = r32::ph_props(e.p_cond, e.comp.h_dis);
   const AirSide air_e = air_side(p_.evap, u[kIndoorFan], p_.fan_ua_exponent, N);
-  // The wall temperature at a coil's end: the end cell's wall plus the difference between the
-  // local wall in steady balance with the refrigerant at that end (at the end's pressure) and
-  // the cell's mean wall in steady balance with its profile (exact at steady state; the wall's
-  // lag is carried by the state).
-  const auto wall_at_end = [&](const CoilCell<S>& c, const ProfileOptions& o, const S& g,
-                               const S& k_htc, const S& t_air_k, const S& p_end, const S& h_end,
-                               const S& tw) {
-    const S t_end = r32::ph_props(p_end, h_end).T;
-    const S a_end = local_alpha(o, h_end, c.h_l, c.h_v, k_htc) * o.area;
-    const S local = (a_end * t_end + g * t_air_k) / (a_end + g);
-    const S mean = (o.area * c.alpha_T + g * t_air_k) / (o.area * c.alpha + g);
-    return tw + (local - mean);
+  // The wall temperature a sensor at a coil's end reads: with end_walls, its own state; without,
+  // the end cell's wall plus the difference between the local wall in steady balance with the
+  // refrigerant at that end and the cell's mean wall in steady balance with its profile (exact
+  // at steady state, but the difference moves without the wall's lag: convergence_bench's
+  // dynamic section).
+  const std::array<std::size_t, kNumEnds> end_cell{L_.tw_cond[0], L_.tw_cond.last(), L_.tw_evap[0],
+                                                   L_.tw_evap.last()};
+  const auto wall_at_end = [&](End end) -> S {
+    if (L_.tw_end.size != 0) return x[L_.tw_end[end]];
+    const EndBalance<S> b = end_balance(e, x, u, end);
+    const S local = (b.a * b.t_ref + b.g * b.t_air) / (b.a + b.g);
+    return x[end_cell[end]] + (local - b.mean);
   };
-  const S t_out_k = S(u[kOutdoorTemperature] + kKelvin);
-  const S t_air_k = e.t_air + kKelvin;
-  const S h_last_c = 1e3 * x[L_.h_cond.last()];
-  const S h_last_e = 1e3 * x[L_.h_evap.last()];
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;
   // What each wall sensor reads: the wall plus the sensor's offset (0 unless it is a state).
-  y[kCondWallTempIn] = wall_at_end(e.cond[0], prof_cond_, e.g_cond, e.cond_htc, t_out_k, e.p_cond,
-                                   e.dl.h, x[L_.tw_cond[0]]) +
-                       factor(x, hp::kCondInOffset);
-  y[kCondWallTempOut] = wall_at_end(e.cond[N - 1], prof_cond_, e.g_cond, e.cond_htc, t_out_k,
-                                    e.ll.p, h_last_c, x[L_.tw_cond.last()]) +
-                        factor(x, hp::kCondOutOffset);
-  y[kEvapWallTempIn] = wall_at_end(e.evap[0], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
-                                   S(e.p_evap + e.dp_evap), e.ll.h, x[L_.tw_evap[0]]) +
-                       factor(x, hp::kEvapInOffset);
-  y[kEvapWallTempOut] = wall_at_end(e.evap[N - 1], prof_evap_, e.g_evap, e.evap_htc, t_air_k,
-                                    e.p_evap, h_last_e, x[L_.tw_evap.last()]) +
-                        factor(x, hp::kEvapOutOffset);
+  y[kCondWallTempIn] = wall_at_end(kEndCondIn) + factor(x, hp::kCondInOffset);
+  y[kCondWallTempOut] = wall_at_end(kEndCondOut) + factor(x, hp::kCondOutOffset);
+  y[kEvapWallTempIn] = wall_at_end(kEndEvapIn) + factor(x, hp::kEvapInOffset);
+  y[kEvapWallTempOut] = wall_at_end(kEndEvapOut) + factor(x, hp::kEvapOutOffset);
   y[kZoneAirTemperature] = e.t_air;
   y[kSupplyAirTemperature] = e.t_air - capacity / (air_e.capacity_rate * static_cast<double>(N));
   y[kCompressorPower] = e.comp.w_elec;

@@ -17,6 +17,8 @@
 //                              evap_htc_factor, friction_factor
 //   Tw_cond_i         [degC]   condenser wall (tube and fin) temperatures
 //   Tw_evap_i         [degC]   evaporator wall temperatures
+//   Tw_end_j          [degC]   the wall at each sensed coil end (End below; optional,
+//                              end_walls): its own heat balance and lag
 //   T_mass            [degC]   building mass (as zone_rc)
 //   Q_int             [W]      internal gains            (augmented, optional)
 //   leak_rate         [g/h]    refrigerant leak           (augmented, optional)
@@ -66,10 +68,14 @@ enum Factor : std::size_t {
 // Factors before this one feed the pressure solve.
 inline constexpr std::size_t kFirstLateFactor = kValve;
 
+// The four coil ends a wall sensor sits at, in the order of their end-wall states.
+enum End : std::size_t { kEndCondIn, kEndCondOut, kEndEvapIn, kEndEvapOut, kNumEnds };
+
 struct Layout {
   std::size_t cells = 0;
   std::size_t charge = 0, m_cond = 1;
   Slice h_cond, tw_cond, h_evap, tw_evap;
+  Slice tw_end;  // size 0 unless the end walls are states
   std::size_t h_dl = 0, h_ll = 0, h_sl = 0, t_air = 0, t_mass = 0;
   std::size_t refrigerant_states = 0;  // states [0, refrigerant_states) feed the pressure solve
   std::size_t q_int = kNone, leak = kNone;        // kNone: not augmented
@@ -77,7 +83,8 @@ struct Layout {
   std::size_t fouling = kNone;                    // factor[kCondUa], by its historical name
   std::size_t size = 0;
 
-  Layout(std::size_t n, bool gains, bool leak_rate, const std::array<bool, kNumFactors>& augmented)
+  Layout(std::size_t n, bool gains, bool leak_rate, bool end_walls,
+         const std::array<bool, kNumFactors>& augmented)
       : cells(n) {
     factor.fill(kNone);
     std::size_t at = 2;
@@ -99,6 +106,7 @@ struct Layout {
     refrigerant_states = at;
     tw_cond = take(n);
     tw_evap = take(n);
+    if (end_walls) tw_end = take(kNumEnds);
     t_mass = at++;
     if (gains) q_int = at++;
     if (leak_rate) leak = at++;

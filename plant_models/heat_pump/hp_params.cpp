@@ -150,6 +150,10 @@ const std::vector<Flag>& flags() {
       {{"augment_leak", "1", 1.0, 0.0, 1.0, true,
         "1: estimate the refrigerant leak rate as a random-walk state"},
        [](Params& p, bool v) { p.augment_leak = v; }},
+      {{"end_walls", "1", 1.0, 0.0, 1.0, true,
+        "1: the wall at each sensed coil end is a state with its own heat balance and lag; 0: "
+        "the end cell's wall plus the steady difference between the end and the cell's mean"},
+       [](Params& p, bool v) { p.end_walls = v; }},
   };
   return entries;
 }

@@ -27,6 +27,7 @@ struct Params {
   int cells = 12;  // finite-volume cells per heat exchanger
   bool augment_gains = true;
   bool augment_leak = true;
+  bool end_walls = true;  // a state for the wall at each sensed coil end (hp_layout.hpp, End)
   std::array<bool, kNumFactors> augment{};  // factors carried as states (Factor, hp_layout.hpp)
 
   // Compressor (variable-speed rotary).

@@ -118,13 +118,13 @@ TEST_CASE("a state the simulator did not save is refused with its line, changing
   CHECK_THAT(refused(""), Catch::Contains("line 1: expected \"hvac-twin-sim state 1\", found the "
                                           "end of the file"));
   CHECK_THAT(refused(zone_state.str()),
-             Catch::Contains("line 2: expected \"model heat_pump_r32 96 5\"") &&
+             Catch::Contains("line 2: expected \"model heat_pump_r32 100 5\"") &&
                  Catch::Contains("found \"model zone_rc"));
   CHECK_THAT(refused(text.substr(0, text.find("\nu "))),
              Catch::Contains("line 5: expected \"u\" and 5 input values, found the end"));
   std::string nan_state = text;
   nan_state.replace(nan_state.find("\nx ") + 3, 1, "nan ");
-  CHECK_THAT(refused(nan_state), Catch::Contains("line 4: expected \"x\" and 96 state values"));
+  CHECK_THAT(refused(nan_state), Catch::Contains("line 4: expected \"x\" and 100 state values"));
   std::string scenario = text;
   scenario.erase(scenario.rfind(' '));
   CHECK_THAT(refused(scenario), Catch::Contains("line 7: expected \"scenario\""));

@@ -54,3 +54,48 @@ TEST_CASE("the first-order answer the profiles replace is far from the converged
   CHECK(fine.subcooling == Approx(ref.subcooling).margin(0.02));
   CHECK(fine.q_cond == Approx(ref.q_cond).epsilon(2e-4));
 }
+
+TEST_CASE("the end-wall states settle where the lag-free end formula puts the sensors",
+          "[heat_pump][convergence]") {
+  // The end walls change the sensors' motion, not their steady readings: each settles in its
+  // own balance with the refrigerant and the air at its end, which is what the formula they
+  // replace (the end cell's wall plus the steady end-versus-mean difference) reads at rest.
+  // A rate or a conductance wrong by a factor would still settle there; a wrong reference
+  // temperature or air side would not.
+  for (const test::OperatingPoint& op : test::kConvergencePoints) {
+    INFO(op.name);
+    const test::SteadyAnswer walls = test::model_steady({{"end_walls", 1}}, 12, op, 0.5);
+    const test::SteadyAnswer lumped = test::model_steady({{"end_walls", 0}}, 12, op, 0.5);
+    CHECK(walls.tw_cond_in == Approx(lumped.tw_cond_in).margin(1e-3));
+    CHECK(walls.tw_cond_out == Approx(lumped.tw_cond_out).margin(1e-3));
+    CHECK(walls.tw_evap_in == Approx(lumped.tw_evap_in).margin(1e-3));
+    CHECK(walls.tw_evap_out == Approx(lumped.tw_evap_out).margin(1e-3));
+    CHECK(walls.subcooling == Approx(lumped.subcooling).margin(1e-4));
+  }
+}
+
+TEST_CASE("with end-wall states the sensors' motion converges in the cell count",
+          "[heat_pump][convergence]") {
+  // convergence_bench's transient (the valve hunting, then a speed step) at the flooded 20 Hz
+  // point: the condenser-inlet wall's motion at 12 cells against 40. With the lag-free end
+  // formula it was 0.53 K RMS off, 2.6x its sensor's noise; with the end walls 0.08 K.
+  const test::OperatingPoint flooded{"20 Hz flooded", 20.0, 0.27, 35.0, 27.0};
+  const auto rms_against_40 = [&](double end_walls) {
+    const plant::ParameterMap p{{"end_walls", end_walls}};
+    const auto coarse = test::model_transient(p, 12, flooded, 0.5);
+    const auto fine = test::model_transient(p, 40, flooded, 0.5);
+    double sum = 0;
+    for (std::size_t t = 1; t < fine.size(); ++t) {
+      const double e = (coarse[t][2] - coarse[0][2]) - (fine[t][2] - fine[0][2]);
+      sum += e * e;
+    }
+    return std::sqrt(sum / static_cast<double>(fine.size() - 1));
+  };
+  const double with_walls = rms_against_40(1);
+  const double lag_free = rms_against_40(0);
+  INFO("condenser-inlet wall's motion, RMS against 40 cells: " << with_walls << " K with end "
+                                                               << "walls, " << lag_free
+                                                               << " K without");
+  CHECK(with_walls < 0.2);
+  CHECK(lag_free > 2.0 * with_walls);
+}

@@ -541,7 +541,10 @@ TEST_CASE("the heat pump's layout follows its structural parameters", "[heat_pum
   const HeatPumpRig small({{"cells", 4}, {"augment_fouling", 1}, {"augment_leak", 0}});
   const auto& L = small.model->layout();
   CHECK(small.hp->slots().cells == 4);
-  CHECK(L.states.size() == 2 + 4 * 4 + 3 + 2 + 2);  // masses, 4 x N, lines, zone, gains+fouling
+  // Masses, 4 x N, lines, zone, the four end walls, gains and fouling.
+  CHECK(L.states.size() == 2 + 4 * 4 + 3 + 2 + 4 + 2);
+  const HeatPumpRig lumped({{"cells", 4}, {"end_walls", 0}});
+  CHECK(lumped.model->num_states() + 4 == HeatPumpRig({{"cells", 4}}).model->num_states());
   CHECK(L.state("fouling").has_value());
   CHECK_FALSE(L.state("leak_rate").has_value());
   std::set<std::string> names;

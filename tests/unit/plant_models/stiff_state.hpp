@@ -1,6 +1,7 @@
 // A state the leak benchmark's filter reached at 21 h of scenarios (b) and (f) (leak_bench
 // --trace-dir, its failure dump) with the valve factor estimated as well (stiff_structure(): the
-// demo's structure and the valve, 65 states):
+// demo's structure and the valve, 65 states; recorded before the end-wall states, so without
+// them):
 // the compressor just started at 20 Hz, the valve at 0.41, the evaporator's first cells left
 // colder than the one downstream of them by an update. Its linearisation has modes growing at
 // 1e10 per second and modes decaying as fast, so F is far from orthogonal: the matrix
@@ -17,6 +18,7 @@ namespace hvac_twin::test {
 inline plant::ParameterMap stiff_structure() {
   plant::ParameterMap p = demo_structure();
   p["augment_valve_factor"] = 1.0;
+  p["end_walls"] = 0.0;
   return p;
 }
 
