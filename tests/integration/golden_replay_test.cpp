@@ -204,12 +204,15 @@ TEST_CASE("the golden recording smoothed: one piece, its end the filter's", "[re
   // tells the filter the noisier points are noisier, so each later reading says less, median
   // 0.98). Not always: the EKF's posterior is not always below its prior (the constrained
   // update's truncation, covariance floors), and the charge's sigma is taken through its
-  // Jacobian at the smoothed state.
+  // Jacobian at the smoothed state. With the model's end-wall states (stop 58) the median is
+  // 0.983 and the largest 1.056, in cycles 29-31 of the cold start (53 of 149 above 1):
+  // this recording's plant still had the lag-free sensor ends, and those cycles are where its
+  // walls move fastest.
   std::sort(ratios.begin(), ratios.end());
   REQUIRE(ratios.size() == 149);
   INFO("smoothed / filter sigma of the charge: median " << ratios[ratios.size() / 2]);
   CHECK(ratios[ratios.size() / 2] < 0.99);
-  CHECK(ratios.back() < 1.05);
+  CHECK(ratios.back() < 1.1);
 }
 
 TEST_CASE("the replay's HTML report is one self-contained file with every chart",
@@ -315,9 +318,9 @@ namespace {
 
 // Replays tests/data/release_under_load/<run> (with estimator.robust_threshold set when given) and
 // counts, per measured point, the cycles from 2 minutes after the release (cycle 72) and those of
-// them in which the point was fused.
-std::map<std::string, std::pair<int, int>> fused_after_release(const std::string& run,
-                                                               const double* robust_threshold) {
+// them in which the point was fused. `charge`, if given, receives the charge estimate per cycle.
+std::map<std::string, std::pair<int, int>> fused_after_release(
+    const std::string& run, const double* robust_threshold, std::vector<double>* charge = nullptr) {
   const std::string data = std::string(HVAC_TWIN_SOURCE_DIR) + "/tests/data/release_under_load/";
   ScratchDir dir("under-load-" + run);
   nlohmann::json config = nlohmann::json::parse(std::ifstream(data + run + "/config.json"));
@@ -330,6 +333,9 @@ std::map<std::string, std::pair<int, int>> fused_after_release(const std::string
   INFO(r.err);
   REQUIRE(r.rc == 0);
   const ReplayCsv got(out);
+  if (charge != nullptr)
+    for (std::size_t i = 0; i < got.rows.size(); ++i)
+      charge->push_back(got.field(i, "charge").empty() ? 0.0 : got.number(i, "charge"));
   std::map<std::string, std::pair<int, int>> counts;  // point: (judged, fused)
   for (const auto& p : config["units"][0]["points"]) {
     if (p["role"] != "measured") continue;
@@ -352,14 +358,16 @@ std::map<std::string, std::pair<int, int>> fused_after_release(const std::string
 // test requires. Without the Huber weight (estimator.robust_threshold 0) the condenser-outlet
 // wall was fused in 0 of 71 such cycles in one, the discharge pressure in 0 of 71 in the other,
 // until stop 50: the re-test of a point still gated out when the release ramp begins (ekf.hpp,
-// "Re-admission") now lets them back in without the weight too, the wall in 62 of 71 cycles,
-// later than with the weight (71 of 71), which also shows the setting reaches the filter.
+// "Re-admission") now lets them back in without the weight too, the wall in 62 of 71 cycles
+// (71 of 71 with the weight) until stop 58, 71 of 71 since the model's end-wall states. That the
+// setting reaches the filter shows in the charge estimates, which differ with and without it.
 TEST_CASE("the recorded runs under load that gated a point out for good keep every point in",
           "[replay][golden]") {
   std::map<std::string, std::map<std::string, std::pair<int, int>>> weighted;
+  std::map<std::string, std::vector<double>> charge_weighted, charge_plain;
   for (const std::string run : {"point_out_for_good", "pressure_out_for_good"}) {
     INFO(run);
-    const auto counts = fused_after_release(run, nullptr);
+    const auto counts = fused_after_release(run, nullptr, &charge_weighted[run]);
     weighted[run] = counts;
     CHECK(counts.size() == 7);
     for (const auto& [point, c] : counts) {
@@ -372,7 +380,7 @@ TEST_CASE("the recorded runs under load that gated a point out for good keep eve
   std::pair<int, int> wall;  // the condenser-outlet wall without the weight: (judged, fused)
   for (const std::string run : {"point_out_for_good", "pressure_out_for_good"}) {
     INFO(run << ", robust_threshold 0");
-    const auto counts = fused_after_release(run, &off);
+    const auto counts = fused_after_release(run, &off, &charge_plain[run]);
     if (run == "point_out_for_good") wall = counts.at("outdoor_coil_out_temp");
     CHECK(counts.size() == 7);
     for (const auto& [point, c] : counts) {
@@ -385,5 +393,14 @@ TEST_CASE("the recorded runs under load that gated a point out for good keep eve
   INFO("the condenser-outlet wall fused in " << wall.second << " of " << wall.first
                                              << " without the weight, " << with_weight
                                              << " with it");
-  CHECK(wall.second < with_weight);
+  CHECK(wall.second <= with_weight);
+  for (const std::string run : {"point_out_for_good", "pressure_out_for_good"}) {
+    INFO(run << ": the charge estimates with and without the weight");
+    REQUIRE(charge_plain[run].size() == charge_weighted[run].size());
+    double moved = 0.0;
+    for (std::size_t i = 0; i < charge_plain[run].size(); ++i)
+      moved = std::max(moved, std::abs(charge_plain[run][i] - charge_weighted[run][i]));
+    INFO("largest difference " << moved << " kg");
+    CHECK(moved > 1e-4);
+  }
 }
