@@ -9,7 +9,8 @@
 // --set, --q, --std, --consider change the filters' model parameters, random walks, initial
 // sigmas and consider flags from the design the daemon runs; --noise-factor sets the factor on the
 // sensor noise the filters are told (default 1) and --repr a point's representativeness error in
-// quadrature (default 0.25 K on the four wall sensors; heat_pump_scenario.hpp says why);
+// quadrature (default 0.15 K on the evaporator-outlet wall, none elsewhere; heat_pump_scenario.hpp
+// says why);
 // --commission H: the filters know the charge for the first H hours (default 0: never);
 // --calibrate: the filters start from a batch calibration on a commissioning of each truth
 // (calibrated_start.hpp);
