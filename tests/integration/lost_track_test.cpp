@@ -41,6 +41,15 @@ int count_of(const std::string& text, const std::string& what) {
 TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and recovered",
           "[integration][track]") {
   StackOptions o = heat_pump_stack_options(63);
+  // The lag-free end formula on this 4-cell, constant-coefficient model (and on the simulator's
+  // truth, which takes the configuration's parameters with its own closures): with the end walls
+  // (stop 58) its discharge pressure is 4.4 sigma RMS off in minutes 6-9 of the start without any
+  // fault (4.7 with this one), which the judgement below would count against the recovery. The
+  // 12-cell model the daemon ships has them (the "no fault" case below).
+  o.customize = [](nlohmann::json& c) {
+    heat_pump_stack_options(0).customize(c);
+    c["units"][0]["model"]["parameters"]["end_walls"] = 0;
+  };
   const double bad_from_h = 2.0 / 60.0, bad_to_h = 3.0 / 60.0, end_h = 9.0 / 60.0;
   const std::string window = "@" + std::to_string(bad_from_h) + "-" + std::to_string(bad_to_h);
   o.sim_args = {"--point", "suction_pressure=5999.9" + window, "--point",
