@@ -281,10 +281,8 @@ std::vector<double> HeatPumpR32::initial_state(double t_out_c, double t_zone_c,
     x[L_.tw_evap[k]] = 0.5 * (e.evap[k].T_out - kKelvin + t_zone_c);
   }
   // The end walls start at their cells' walls; their own lag settles them.
-  const std::array<std::size_t, hp::kNumEnds> end_cell{L_.tw_cond[0], L_.tw_cond.last(),
-                                                       L_.tw_evap[0], L_.tw_evap.last()};
   for (std::size_t j = 0; j < L_.tw_end.size; ++j)
-    x[L_.tw_end[j]] = x[end_cell[j]];
+    x[L_.tw_end[j]] = x[L_.end_cell_wall(static_cast<hp::End>(j))];
   x[L_.h_dl] = 1e-3 * in.h_dl;
   x[L_.h_ll] = 1e-3 * in.h_ll;
   x[L_.h_sl] = 1e-3 * in.h_sl;

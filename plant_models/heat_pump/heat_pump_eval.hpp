@@ -637,13 +637,11 @@ int HeatPumpR32::outputs(std::span<const S> x, std::span<const double> u, std::s
   // refrigerant at that end and the cell's mean wall in steady balance with its profile (exact
   // at steady state, but the difference moves without the wall's lag: convergence_bench's
   // dynamic section).
-  const std::array<std::size_t, kNumEnds> end_cell{L_.tw_cond[0], L_.tw_cond.last(), L_.tw_evap[0],
-                                                   L_.tw_evap.last()};
   const auto wall_at_end = [&](End end) -> S {
     if (L_.tw_end.size != 0) return x[L_.tw_end[end]];
     const EndBalance<S> b = end_balance(e, x, u, end);
     const S local = (b.a * b.t_ref + b.g * b.t_air) / (b.a + b.g);
-    return x[end_cell[end]] + (local - b.mean);
+    return x[L_.end_cell_wall(end)] + (local - b.mean);
   };
   y[kSuctionPressure] = e.p_evap;
   y[kDischargePressure] = e.p_cond;

@@ -115,6 +115,20 @@ struct Layout {
     fouling = factor[kCondUa];
     size = at;
   }
+
+  // The wall state of the cell at a sensed end.
+  [[nodiscard]] std::size_t end_cell_wall(End end) const {
+    switch (end) {
+      case kEndCondIn:
+        return tw_cond[0];
+      case kEndCondOut:
+        return tw_cond.last();
+      case kEndEvapIn:
+        return tw_evap[0];
+      default:
+        return tw_evap.last();
+    }
+  }
 };
 
 // Inputs, all read from the unit's points.

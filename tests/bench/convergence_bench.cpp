@@ -126,15 +126,9 @@ bool dynamic_section(const plant::ParameterMap& params, const char* label, const
   for (std::size_t r = 0; r + 1 < runs.size(); ++r) {
     std::printf("  %-12d", cells[r]);
     for (std::size_t j = 0; j < 6; ++j) {
-      double sum = 0, worst = 0;
-      for (std::size_t t = 1; t < ref.size(); ++t) {
-        const double e = (runs[r][t][j] - runs[r][0][j]) - (ref[t][j] - ref[0][j]);
-        sum += e * e;
-        worst = std::max(worst, std::abs(e));
-      }
-      const double rms = std::sqrt(sum / double(ref.size() - 1));
-      std::printf("  %5.2f / %5.2f", kScale[j] * rms, kScale[j] * worst);
-      if (cells[r] == kDefaultCells && rms > sigma[j])
+      const test::MotionError m = test::motion_error(runs[r], ref, j);
+      std::printf("  %5.2f / %5.2f", kScale[j] * m.rms, kScale[j] * m.largest);
+      if (cells[r] == kDefaultCells && m.rms > sigma[j])
         beyond += std::string(beyond.empty() ? "" : ", ") + kName[j];
     }
     std::printf("\n");

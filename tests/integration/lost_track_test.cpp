@@ -46,8 +46,8 @@ TEST_CASE("absurd in-range readings: lost track is flagged, logged once, and rec
   // (stop 58) its discharge pressure is 4.4 sigma RMS off in minutes 6-9 of the start without any
   // fault (4.7 with this one), which the judgement below would count against the recovery. The
   // 12-cell model the daemon ships has them (the "no fault" case below).
-  o.customize = [](nlohmann::json& c) {
-    heat_pump_stack_options(0).customize(c);
+  o.customize = [base = o.customize](nlohmann::json& c) {
+    base(c);
     c["units"][0]["model"]["parameters"]["end_walls"] = 0;
   };
   const double bad_from_h = 2.0 / 60.0, bad_to_h = 3.0 / 60.0, end_h = 9.0 / 60.0;

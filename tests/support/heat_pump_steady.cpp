@@ -111,15 +111,27 @@ std::vector<MeasuredPoints> model_transient(const plant::ParameterMap& params, i
   plant::Integrator integ(*model, tight());
   for (int t = 0; t < kTransientSeconds; ++t) {
     const bool hunting = t < kTransientSeconds / 2;
-    u[kValveOpening] = op.valve * (hunting && (t / 25) % 2 == 0 ? 1.05 : 0.95);
-    if (!hunting) u[kValveOpening] = op.valve;
-    u[kCompressorSpeed] = op.speed + (hunting ? 0.0 : 8.0);
+    u[kValveOpening] = hunting ? op.valve * ((t / 25) % 2 == 0 ? 1.05 : 0.95) : op.valve;
+    u[kCompressorSpeed] = hunting ? op.speed : op.speed + 8.0;
     if (!integ.step(x, u, 1.0, {}).ok())
       throw std::runtime_error(std::string("transient failed: ") + integ.last_error());
     if (model->outputs(x, u, y) != plant::kModelOk) throw std::runtime_error("outputs failed");
     out.push_back(measured());
   }
   return out;
+}
+
+MotionError motion_error(const std::vector<MeasuredPoints>& run,
+                         const std::vector<MeasuredPoints>& ref, std::size_t j) {
+  MotionError m;
+  const std::size_t n = std::min(run.size(), ref.size());
+  for (std::size_t t = 1; t < n; ++t) {
+    const double e = (run[t][j] - run[0][j]) - (ref[t][j] - ref[0][j]);
+    m.rms += e * e;
+    m.largest = std::max(m.largest, std::abs(e));
+  }
+  if (n > 1) m.rms = std::sqrt(m.rms / static_cast<double>(n - 1));
+  return m;
 }
 
 double model_charge_for_subcooling(const plant::ParameterMap& params, int cells,

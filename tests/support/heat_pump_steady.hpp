@@ -59,6 +59,14 @@ using MeasuredPoints = std::array<double, 6>;
 std::vector<MeasuredPoints> model_transient(const plant::ParameterMap& params, int cells,
                                             const OperatingPoint& op, double charge);
 
+// The error in point `j`'s motion (its change from its steady value at index 0) of `run` against
+// `ref`, over the transient: RMS and largest magnitude, in the point's unit.
+struct MotionError {
+  double rms = 0, largest = 0;
+};
+MotionError motion_error(const std::vector<MeasuredPoints>& run,
+                         const std::vector<MeasuredPoints>& ref, std::size_t j);
+
 // The charge [kg] at which the model reproduces `subcooling` [K] at the operating point (secant
 // iteration from the nameplate, to 1e-4 K).
 double model_charge_for_subcooling(const plant::ParameterMap& params, int cells,
