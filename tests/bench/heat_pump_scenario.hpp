@@ -78,11 +78,16 @@ class AdaptedMeasurements {
     if (!options_) return z_;
     if (!adapter_) {
       adapter_ = std::make_unique<est::NoiseAdapter>(told.size(), *options_);
-      for (const auto& m : told)
-        told_.push_back(m.variance);
+      told_.resize(told.size());
     }
-    for (std::size_t i = 0; i < z_.size(); ++i)
+    // The told variances are this cycle's: a pressure transmitter's noise is a share of its
+    // reading, so they move with the operating point. (Kept from the first cycle, as they were
+    // until stop 59, the pressures' were those of the start's pressures: on the nominal truth
+    // the suction pressure's NIS read 0.45 where against this cycle's noise it is 0.59.)
+    for (std::size_t i = 0; i < z_.size(); ++i) {
+      told_[i] = told[i].variance;
       z_[i].variance = adapter_->variance(i, told_[i]);
+    }
     return z_;
   }
   // After the update: its reports, and whether the daemon would discard them (the track lost,
