@@ -38,16 +38,13 @@ inline bool consistency_guard(TruthKind truth, const std::vector<FilterRun>& run
                               const GuardLimits& g = {}) {
   const bool normal = truth != TruthKind::kSensorBias;
   bool ok = true;
-  const auto fail = [&](const FilterRun& r, const char* what, const std::string& name, double v,
-                        double lo, double hi) {
+  // Each check a closed interval; a NaN is outside every one.
+  const auto check = [&](const FilterRun& r, const char* what, const std::string& name, double v,
+                         double lo, double hi) {
+    if (v >= lo && v <= hi) return;
     std::printf("guard: %s, %s: %s %s = %.3f outside [%.3f, %.3f]\n", truth_name(truth),
                 r.name.c_str(), what, name.c_str(), v, lo, hi);
     ok = false;
-  };
-  // Each check as a closed interval; a NaN is outside every one.
-  const auto check = [&](const FilterRun& r, const char* what, const std::string& name, double v,
-                         double lo, double hi) {
-    if (!(v >= lo && v <= hi)) fail(r, what, name, v, lo, hi);
   };
   for (const auto& r : runs) {
     check(r, "NIS", "overall", r.nis(), normal ? g.nis_lo : 0.0, g.nis_hi);
